@@ -1,0 +1,116 @@
+// ost_util_dense.h: small dense linear algebra for one world (mirrors engine_util_blas.c and
+// engine_util_solve.c). Matrices are row-major; the Cholesky factor L is lower triangular and
+// stored in place of the matrix (upper triangle left untouched).
+// Invariant: no allocation; every function writes only its output arguments.
+#ifndef OSTRICH_CORE_OST_UTIL_DENSE_H_
+#define OSTRICH_CORE_OST_UTIL_DENSE_H_
+
+#include <math.h>
+
+#include "ost_hd.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+// dot product of two vectors
+OST_HD ostNum ostu_dot(const ostNum* a, const ostNum* b, int n) {
+  ostNum s = 0;
+  for (int i = 0; i < n; i++) {
+    s += a[i] * b[i];
+  }
+  return s;
+}
+
+
+// res = A * x, A is (nr x nc)
+OST_HD void ostu_mulMatVec(ostNum* OST_RESTRICT res, const ostNum* A, const ostNum* x,
+                           int nr, int nc) {
+  for (int i = 0; i < nr; i++) {
+    res[i] = ostu_dot(A + i * nc, x, nc);
+  }
+}
+
+
+// res = A' * x, A is (nr x nc)
+OST_HD void ostu_mulMatTVec(ostNum* OST_RESTRICT res, const ostNum* A, const ostNum* x,
+                            int nr, int nc) {
+  for (int j = 0; j < nc; j++) {
+    res[j] = 0;
+  }
+  for (int i = 0; i < nr; i++) {
+    ostNum xi = x[i];
+    if (xi != 0) {
+      const ostNum* a = A + i * nc;
+      for (int j = 0; j < nc; j++) {
+        res[j] += a[j] * xi;
+      }
+    }
+  }
+}
+
+
+// in-place Cholesky A = L L' of a symmetric (n x n) matrix; returns 0 or 1 + failing column
+OST_HD int ostu_cholFactor(ostNum* A, int n) {
+  for (int j = 0; j < n; j++) {
+    ostNum djj = A[j * n + j];
+    for (int k = 0; k < j; k++) {
+      djj -= A[j * n + k] * A[j * n + k];
+    }
+    if (!(djj > 0)) {
+      return j + 1;
+    }
+    ostNum ljj = sqrt(djj);
+    A[j * n + j] = ljj;
+    for (int i = j + 1; i < n; i++) {
+      ostNum s = A[i * n + j];
+      for (int k = 0; k < j; k++) {
+        s -= A[i * n + k] * A[j * n + k];
+      }
+      A[i * n + j] = s / ljj;
+    }
+  }
+  return 0;
+}
+
+
+// solve L L' x = b with the factor from ostu_cholFactor; x and b may alias
+OST_HD void ostu_cholSolve(ostNum* x, const ostNum* L, const ostNum* b, int n) {
+  // forward substitution: L y = b
+  for (int i = 0; i < n; i++) {
+    ostNum s = b[i];
+    for (int k = 0; k < i; k++) {
+      s -= L[i * n + k] * x[k];
+    }
+    x[i] = s / L[i * n + i];
+  }
+  // back substitution: L' x = y
+  for (int i = n - 1; i >= 0; i--) {
+    ostNum s = x[i];
+    for (int k = i + 1; k < n; k++) {
+      s -= L[k * n + i] * x[k];
+    }
+    x[i] = s / L[i * n + i];
+  }
+}
+
+
+// squared norm of L^-1 b (= b' (L L')^-1 b); y is scratch of size n
+OST_HD ostNum ostu_cholNormSqr(ostNum* OST_RESTRICT y, const ostNum* L, const ostNum* b, int n) {
+  ostNum s2 = 0;
+  for (int i = 0; i < n; i++) {
+    ostNum s = b[i];
+    for (int k = 0; k < i; k++) {
+      s -= L[i * n + k] * y[k];
+    }
+    y[i] = s / L[i * n + i];
+    s2 += y[i] * y[i];
+  }
+  return s2;
+}
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif  // OSTRICH_CORE_OST_UTIL_DENSE_H_

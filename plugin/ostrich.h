@@ -1,0 +1,118 @@
+// ostrich.h: the public API of Ostrich, an implicit hard-contact, non-smooth Newton time stepper
+// for MuJoCo 2.2.2 models. This is the only public header; it mirrors mujoco.h's mj_step family.
+//
+// Conventions: functions return an ostStatus (0 = OK, > 0 runtime failure, < 0 = minus the
+// 1-based index of a bad argument, the LAPACK convention). Library code never exits, aborts or
+// calls MuJoCo's default error handler; the message of the last failure on an mjData is kept and
+// returned by ost_lastError.
+#ifndef OSTRICH_PLUGIN_OSTRICH_H_
+#define OSTRICH_PLUGIN_OSTRICH_H_
+
+#include <mujoco/mujoco.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#if mjVERSION_HEADER != 222
+#error "Ostrich requires the MuJoCo 2.2.2 headers (mjVERSION_HEADER == 222)"
+#endif
+
+
+//---------------------------------- Status --------------------------------------------------------
+
+typedef enum ostStatus_ {         // result of a host call
+  OST_OK            = 0,          // success
+  OST_ERR_MODEL     = 1,          // model uses a feature Ostrich does not model (named in message)
+  OST_ERR_INPUT     = 2,          // non-finite state, control or applied force (named in message)
+  OST_ERR_OVERFLOW  = 3,          // contact or constraint capacity exceeded (nconmax / njmax)
+  OST_ERR_NUMERIC   = 4,          // mass matrix not positive definite or non-finite solve
+  OST_ERR_VERSION   = 5,          // MuJoCo library is not version 2.2.2
+  OST_ERR_MEMORY    = 6           // allocation failed
+} ostStatus;
+
+typedef enum ostStatusBit_ {      // per-step outcome bits (ostStats.status), same on CPU and GPU
+  OST_NOT_CONVERGED = 1,          // best residual above tolerance after the Newton budget
+  OST_OVERFLOW      = 2,          // a fixed capacity was exceeded
+  OST_NAN           = 4,          // a non-finite value appeared
+  OST_CHOL_FAIL     = 8           // M + h*D was not positive definite
+} ostStatusBit;
+
+
+//---------------------------------- Options -------------------------------------------------------
+
+// Solver options. Each field can be set in MJCF as <custom><numeric name="ostrich/FIELD"
+// data="..."/></custom>, so that a model configured for Ostrich still loads in stock MuJoCo.
+typedef struct ostOptions_ {
+  int    newton_iter;             // Newton budget per step                          (16)
+  int    pcr_iter;                // PCR budget per Newton iterate                   (32)
+  int    k_min;                   // earliest Newton iterate that may be returned     (1)
+  double tol;                     // merit residual (m/s) at which Newton stops early (1e-10)
+  double pcr_tol;                 // relative PCR residual at which PCR stops early   (1e-12)
+  double timestep;                // step size; 0 = use opt.timestep                  (0)
+  double margin;                  // contact look-ahead distance (m) added to margins (0.01)
+  double fb_eps;                  // Fischer-Burmeister smoothing (m, m/s)            (1e-9)
+  double eq_compliance;           // equality-constraint compliance E (m/N)           (0)
+} ostOptions;
+
+// Set default options.
+void ost_defaultOptions(ostOptions* opt);
+
+// Read options from the model's <custom> numerics named "ostrich/*"; unknown names are an error.
+int ost_readOptions(const mjModel* m, ostOptions* opt, char* err, int err_sz);
+
+// Override the options used for steps of this mjData (after ost_readOptions of the model).
+int ost_setOptions(const mjModel* m, mjData* d, const ostOptions* opt);
+
+
+//---------------------------------- Model check ---------------------------------------------------
+
+// Return OST_OK if Ostrich models every feature of m, else OST_ERR_MODEL and name the feature.
+int ost_checkModel(const mjModel* m, char* err, int err_sz);
+
+
+//---------------------------------- Stepping ------------------------------------------------------
+
+// Per-step statistics of the last step on an mjData.
+typedef struct ostStats_ {
+  int    status;                  // ostStatusBit flags
+  int    newton_iter;             // Newton iterates evaluated
+  int    best_iter;               // index of the returned (best) iterate
+  int    pcr_iter;                // PCR iterations summed over the step
+  int    ncon;                    // contacts in the returned iterate (incl. look-ahead)
+  int    nrow;                    // constraint rows in the returned iterate
+  double residual;                // merit residual of the returned iterate (m/s)
+  double residual_first;          // merit residual of the first iterate (m/s)
+  double max_penetration;         // deepest contact penetration at q+ (m)
+} ostStats;
+
+// Advance one step with Ostrich (mj_step semantics, mjcb_control included).
+int ost_step(const mjModel* m, mjData* d);
+
+// First half: stock position and velocity stages at (q-, u-), then mjcb_control (= mj_step1).
+int ost_step1(const mjModel* m, mjData* d);
+
+// Second half: Ostrich solve, commit (q+, u+), and publish mjData at q+ (DESIGN.md section 4).
+int ost_step2(const mjModel* m, mjData* d);
+
+// Statistics of the last step on d (NULL if d was never stepped by Ostrich).
+const ostStats* ost_stats(const mjData* d);
+
+// Message of the last failed call on d ("" if none).
+const char* ost_lastError(const mjData* d);
+
+// Deepest penetration (m) among the contacts that MuJoCo includes in d->contact.
+double ost_maxPenetration(const mjModel* m, const mjData* d);
+
+// Release Ostrich's per-mjData state (buffers, options). Safe on unknown d.
+void ost_detach(const mjData* d);
+
+// Release Ostrich's per-mjData state and delete d (= mj_deleteData).
+void ost_deleteData(mjData* d);
+
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif  // OSTRICH_PLUGIN_OSTRICH_H_

@@ -1,0 +1,27 @@
+// fixture.h: shared helpers for the Check suites: MuJoCo error and warning handlers that fail the
+// running test (fixture.cc pattern), and model loading from mjcf_models/ or from an XML string.
+#ifndef OSTRICH_TESTS_FIXTURE_H_
+#define OSTRICH_TESTS_FIXTURE_H_
+
+#include <check.h>
+#include <mujoco/mujoco.h>
+
+// install handlers: mju_error always fails the test; mju_warning fails it unless allowed
+void ost_fixtureSetup(void);
+
+// allow (1) or forbid (0) MuJoCo warnings; returns the number of warnings seen since setup
+int ost_fixtureAllowWarnings(int allow);
+
+// load mjcf_models/NAME; fails the test on error
+mjModel* ost_fixtureLoadModel(const char* name);
+
+// load a model from an XML string; fails the test on error
+mjModel* ost_fixtureLoadString(const char* xml);
+
+// load a model from an XML string; returns NULL and the message in err on error
+mjModel* ost_fixtureTryLoadString(const char* xml, char* err, int err_sz);
+
+// run a suite and return the process exit status
+int ost_fixtureRun(Suite* s);
+
+#endif  // OSTRICH_TESTS_FIXTURE_H_
