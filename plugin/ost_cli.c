@@ -1,0 +1,784 @@
+// ost_cli.c: the `ostrich` command-line tool. Subcommands are dispatched from one table
+// (kCommands); `sim` loads an MJCF model, steps it with Ostrich (ost_step) or stock MuJoCo
+// (mj_step), optionally writes the trajectory as CSV, and prints a JSON summary.
+// Mirrors MuJoCo's sample programs (testspeed.cc, basic.cc), without rendering.
+//
+// Invariant: stdout carries exactly one JSON line per simulation and nothing else; every
+// diagnostic and progress line goes to stderr and starts with "ostrich:" (MuJoCo warnings with
+// "mujoco warning:"). Exit codes: 0 success, 1 the simulation failed (NaN, failed step, MuJoCo
+// error), 2 bad usage or unusable input (options, model file, XML, model refused by Ostrich).
+#define _POSIX_C_SOURCE 200809L
+
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include <mujoco/mujoco.h>
+
+#include "ostrich.h"
+
+enum {
+  CLI_OK    = 0,                  // success
+  CLI_FAIL  = 1,                  // the simulation failed
+  CLI_USAGE = 2                   // bad usage or unusable input
+};
+
+#define CLI_MSG_SZ 1024           // size of message buffers
+
+
+//---------------------------------- Messages ------------------------------------------------------
+
+static char mj_error_text[CLI_MSG_SZ];  // first MuJoCo error of this process ("" if none)
+
+
+// Turn line breaks into spaces and drop trailing spaces (MuJoCo's XML errors span lines).
+static void cli_oneLine(char* msg) {
+  for (char* c = msg; *c; c++) {
+    if (*c == '\n' || *c == '\r') {
+      *c = ' ';
+    }
+  }
+  for (size_t n = strlen(msg); n > 0 && msg[n - 1] == ' '; n--) {
+    msg[n - 1] = 0;
+  }
+}
+
+
+// Print "ostrich: <message>" on stderr, as one line.
+static void cli_error(const char* fmt, ...) {
+  char msg[2 * CLI_MSG_SZ];
+  va_list args;
+  va_start(args, fmt);
+  vsnprintf(msg, sizeof(msg), fmt, args);
+  va_end(args);
+  cli_oneLine(msg);
+  fprintf(stderr, "ostrich: %s\n", msg);
+}
+
+
+// MuJoCo error handler: record the first message and return (no longjmp, no exit); callers
+// check cli_mujocoError after each MuJoCo call that can fail.
+static void cli_onMujocoError(const char* msg) {
+  if (!mj_error_text[0]) {
+    snprintf(mj_error_text, sizeof(mj_error_text), "%s", msg);
+  }
+}
+
+
+// MuJoCo warning handler: print on stderr, one line.
+static void cli_onMujocoWarning(const char* msg) {
+  char line[CLI_MSG_SZ];
+  snprintf(line, sizeof(line), "%s", msg);
+  cli_oneLine(line);
+  fprintf(stderr, "mujoco warning: %s\n", line);
+}
+
+
+// Message of the first MuJoCo error of this process, NULL if none.
+static const char* cli_mujocoError(void) {
+  return mj_error_text[0] ? mj_error_text : NULL;
+}
+
+
+//---------------------------------- Parsing -------------------------------------------------------
+
+// Parse a finite number that fills the whole string; return 0 on success.
+static int cli_parseNumber(const char* s, double* value) {
+  char* end = NULL;
+  errno = 0;
+  double v = strtod(s, &end);
+  if (end == s || *end || errno == ERANGE || !isfinite(v)) {
+    return 1;
+  }
+  *value = v;
+  return 0;
+}
+
+
+// Parse a non-negative decimal integer that fills the whole string; return 0 on success.
+static int cli_parseCount(const char* s, long* value) {
+  char* end = NULL;
+  errno = 0;
+  long v = strtol(s, &end, 10);
+  if (end == s || *end || errno == ERANGE || v < 0 || v > 2147483647L) {
+    return 1;
+  }
+  *value = v;
+  return 0;
+}
+
+
+// Parse a comma list of exactly n numbers into values; return 0 on success, else print why.
+static int cli_parseList(const char* option, const char* s, mjtNum* values, int n) {
+  // an empty list has no items; items are separated by commas
+  int count = 0;
+  int more = (*s != 0);
+  while (more) {
+    char item[64];
+    double v;
+    int len = (int)strcspn(s, ",");
+    snprintf(item, sizeof(item), "%.*s", len, s);
+    if (len >= (int)sizeof(item) || cli_parseNumber(item, &v)) {
+      cli_error("%s: '%.*s' is not a number", option, len, s);
+      return 1;
+    }
+    if (count < n) {
+      values[count] = v;
+    }
+    count++;
+    more = (s[len] == ',');
+    s += len + 1;
+  }
+  if (count != n) {
+    cli_error("%s: got %d values, the model has nu = %d", option, count, n);
+    return 1;
+  }
+  return 0;
+}
+
+
+//---------------------------------- Option table --------------------------------------------------
+
+typedef enum cliArg_ {            // kind of value an option takes
+  CLI_ARG_STRING,                 // any string (const char*)
+  CLI_ARG_POSITIVE,               // finite number > 0 (double)
+  CLI_ARG_COUNT                   // integer >= 0 (long)
+} cliArg;
+
+typedef struct cliOption_ {       // one command-line option with a value
+  const char* name;               // "--name"
+  cliArg      kind;               // value kind
+  size_t      offset;             // offset of the value field in the argument struct
+  const char* metavar;            // placeholder in the usage text
+  const char* help;               // usage text; '\n' starts a new indented line
+} cliOption;
+
+
+// Print an option table as aligned usage lines.
+static void cli_printOptions(FILE* f, const cliOption* options, int noption) {
+  for (int i = 0; i < noption; i++) {
+    char left[64];
+    snprintf(left, sizeof(left), "%s %s", options[i].name, options[i].metavar);
+    fprintf(f, "  %-26s ", left);
+    for (const char* c = options[i].help; *c; c++) {
+      fputc(*c, f);
+      if (*c == '\n') {
+        fprintf(f, "  %-26s ", "");
+      }
+    }
+    fputc('\n', f);
+  }
+}
+
+
+// Store the value text of option o into the argument struct args; return 0 on success.
+static int cli_storeOption(const cliOption* o, const char* text, void* args) {
+  char* field = (char*)args + o->offset;
+  if (o->kind == CLI_ARG_STRING) {
+    *(const char**)field = text;
+    return 0;
+  }
+  if (o->kind == CLI_ARG_POSITIVE) {
+    double v;
+    if (cli_parseNumber(text, &v) || v <= 0) {
+      cli_error("%s: '%s' is not a positive number", o->name, text);
+      return 1;
+    }
+    *(double*)field = v;
+    return 0;
+  }
+  long v;
+  if (cli_parseCount(text, &v)) {
+    cli_error("%s: '%s' is not a non-negative integer", o->name, text);
+    return 1;
+  }
+  *(long*)field = v;
+  return 0;
+}
+
+
+// Find an option by name, NULL if unknown.
+static const cliOption* cli_findOption(const cliOption* options, int noption, const char* name) {
+  for (int i = 0; i < noption; i++) {
+    if (!strcmp(options[i].name, name)) {
+      return options + i;
+    }
+  }
+  return NULL;
+}
+
+
+//---------------------------------- sim: arguments ------------------------------------------------
+
+typedef struct simArgs_ {         // arguments of `ostrich sim`
+  const char* model;              // MJCF path (the positional argument)
+  const char* engine;             // "ostrich" or "mujoco"
+  double      h;                  // step size (s); 0: not given
+  double      duration;           // simulated time (s); 0: not given
+  long        steps;              // number of steps; -1: not given
+  const char* ctrl;               // comma list of nu controls; NULL: not given
+  long        newton;             // Newton budget; -1: not given
+  long        pcr;                // PCR budget; -1: not given
+  const char* out;                // CSV path; NULL: none
+  int         help;               // --help was given
+} simArgs;
+
+#define SIM_DEFAULT_DURATION 5.0  // simulated seconds when neither --duration nor --steps
+
+static const cliOption kSimOptions[] = {
+  {"--engine", CLI_ARG_STRING, offsetof(simArgs, engine), "ostrich|mujoco",
+   "time stepper: ostrich (ost_step, the default) or mujoco (stock mj_step)"},
+  {"--h", CLI_ARG_POSITIVE, offsetof(simArgs, h), "SEC",
+   "step size (s); default: ostrich: the model's <custom> ostrich/timestep\n"
+   "if present, else opt.timestep; mujoco: opt.timestep"},
+  {"--duration", CLI_ARG_POSITIVE, offsetof(simArgs, duration), "SEC",
+   "simulated time (s), steps = round(SEC / h) (default 5)"},
+  {"--steps", CLI_ARG_COUNT, offsetof(simArgs, steps), "N",
+   "number of steps, instead of --duration (giving both is an error)"},
+  {"--ctrl", CLI_ARG_STRING, offsetof(simArgs, ctrl), "v1,v2,...",
+   "exactly nu controls, set into d->ctrl before every step (default 0)"},
+  {"--newton", CLI_ARG_COUNT, offsetof(simArgs, newton), "K",
+   "Newton budget per step (ostrich/newton_iter); ignored by mujoco"},
+  {"--pcr", CLI_ARG_COUNT, offsetof(simArgs, pcr), "K",
+   "PCR budget per Newton iterate (ostrich/pcr_iter); ignored by mujoco"},
+  {"--out", CLI_ARG_STRING, offsetof(simArgs, out), "FILE.csv",
+   "write the trajectory as CSV: header time,qpos_0..,qvel_0..; one row\n"
+   "for the initial state, then one after each step (%.10g)"},
+};
+
+static const int kSimNumOptions = (int)(sizeof(kSimOptions) / sizeof(kSimOptions[0]));
+
+
+// Print the usage of `ostrich sim`.
+static void sim_usage(FILE* f) {
+  fprintf(f,
+    "usage: ostrich sim MODEL.xml [options]\n"
+    "\n"
+    "Load an MJCF model, simulate it with Ostrich or stock MuJoCo 2.2.2, and print one JSON\n"
+    "line on stdout: engine, model, h, steps, wall_s (seconds spent in the step calls),\n"
+    "nan (a non-finite qpos/qvel was seen, or MuJoCo reset a diverged state; stepping stops\n"
+    "there), max_penetration (m, deepest contact over all steps), mean_residual (ostrich: merit\n"
+    "residual; mujoco: final solver gradient norm), mean_newton_iter (ostrich: Newton\n"
+    "iterates; mujoco: solver iterations) and final_qpos.\n"
+    "\n"
+    "options:\n");
+  cli_printOptions(f, kSimOptions, kSimNumOptions);
+  fprintf(f,
+    "  %-26s print this help and exit\n"
+    "\n"
+    "Progress lines (ostrich: step k/N) go to stderr every second on runs longer than about\n"
+    "2 s, unless OSTRICH_QUIET=1. Exit status: 0 success; 1 the simulation failed (NaN,\n"
+    "failed step, MuJoCo error; the JSON line and the CSV still cover the steps taken); 2 bad\n"
+    "usage, missing or malformed model, model refused by Ostrich.\n", "-h, --help");
+}
+
+
+// Parse the arguments of `ostrich sim`; return 0 on success, else print why.
+static int sim_parseArgs(int argc, char** argv, simArgs* a) {
+  *a = (simArgs){.engine = "ostrich", .steps = -1, .newton = -1, .pcr = -1};
+  for (int i = 0; i < argc; i++) {
+    const char* arg = argv[i];
+    if (!strcmp(arg, "--help") || !strcmp(arg, "-h")) {
+      a->help = 1;
+      return 0;
+    }
+
+    // the positional model path
+    if (arg[0] != '-' || !arg[1]) {
+      if (a->model) {
+        cli_error("sim: unexpected argument '%s' (the model is '%s')", arg, a->model);
+        return 1;
+      }
+      a->model = arg;
+      continue;
+    }
+
+    // an option and its value
+    const cliOption* o = cli_findOption(kSimOptions, kSimNumOptions, arg);
+    if (!o) {
+      cli_error("sim: unknown option '%s' (see ostrich sim --help)", arg);
+      return 1;
+    }
+    if (i + 1 >= argc) {
+      cli_error("%s: missing value (%s)", arg, o->metavar);
+      return 1;
+    }
+    if (cli_storeOption(o, argv[++i], a)) {
+      return 1;
+    }
+  }
+  return 0;
+}
+
+
+// Check the combination of parsed arguments; return 0 on success, else print why.
+static int sim_checkArgs(const simArgs* a) {
+  if (!a->model) {
+    cli_error("sim: missing MODEL.xml (see ostrich sim --help)");
+    return 1;
+  }
+  if (strcmp(a->engine, "ostrich") && strcmp(a->engine, "mujoco")) {
+    cli_error("--engine: '%s' is not ostrich or mujoco", a->engine);
+    return 1;
+  }
+  if (a->duration > 0 && a->steps >= 0) {
+    cli_error("give either --duration or --steps, not both");
+    return 1;
+  }
+  return 0;
+}
+
+
+//---------------------------------- sim: setup ----------------------------------------------------
+
+typedef struct simRun_ {          // one simulation: inputs, state and results
+  // setup
+  mjModel* m;                     // model
+  mjData*  d;                     // data
+  int      ostrich;               // 1: ost_step, 0: mj_step
+  double   h;                     // step size (s)
+  long     nstep;                 // steps requested
+  mjtNum*  ctrl;                  // controls set before every step (nu); NULL: none
+  FILE*    csv;                   // trajectory output; NULL: none
+
+  // results
+  long     done;                  // steps completed
+  double   wall;                  // seconds spent in the step calls
+  int      nan;                   // a non-finite qpos/qvel was seen, or MuJoCo reset one
+  double   max_penetration;       // max of ost_maxPenetration over steps (m)
+  double   sum_residual;          // sum over steps of the solver residual
+  double   sum_iter;              // sum over steps of the solver iterations
+} simRun;
+
+
+// Load the model; return 0 on success, else print why.
+static int sim_loadModel(const char* path, simRun* r) {
+  char err[CLI_MSG_SZ] = "";
+
+  // a missing file gets its own message (MuJoCo's is vague)
+  FILE* f = fopen(path, "r");
+  if (!f) {
+    cli_error("cannot open model '%s': %s", path, strerror(errno));
+    return 1;
+  }
+  fclose(f);
+
+  // compile; MuJoCo returns NULL and the reason for malformed XML
+  r->m = mj_loadXML(path, NULL, err, sizeof(err));
+  if (!r->m) {
+    const char* why = err[0] ? err : cli_mujocoError();
+    cli_error("cannot load model '%s': %s", path, why ? why : "unknown error");
+    return 1;
+  }
+  if (err[0]) {
+    cli_onMujocoWarning(err);
+  }
+  r->d = mj_makeData(r->m);
+  if (!r->d || cli_mujocoError()) {
+    const char* why = cli_mujocoError();
+    cli_error("cannot allocate mjData for '%s': %s", path, why ? why : "out of memory");
+    return 1;
+  }
+  return 0;
+}
+
+
+// Configure Ostrich: model check, <custom> options, command-line overrides; set r->h.
+static int sim_setupOstrich(const simArgs* a, simRun* r) {
+  char err[CLI_MSG_SZ] = "";
+  ostOptions opt;
+
+  // refuse models with features Ostrich does not model
+  if (ost_checkModel(r->m, err, sizeof(err)) != OST_OK) {
+    cli_error("%s", err);
+    return 1;
+  }
+
+  // options: defaults < model <custom> ostrich/* < command line
+  ost_defaultOptions(&opt);
+  if (ost_readOptions(r->m, &opt, err, sizeof(err)) != OST_OK) {
+    cli_error("%s", err);
+    return 1;
+  }
+  if (a->h > 0) {
+    opt.timestep = a->h;
+  }
+  if (a->newton >= 0) {
+    opt.newton_iter = (int)a->newton;
+  }
+  if (a->pcr >= 0) {
+    opt.pcr_iter = (int)a->pcr;
+  }
+  int status = ost_setOptions(r->m, r->d, &opt);
+  if (status != OST_OK) {
+    cli_error("options refused (status %d): %s", status, ost_lastError(r->d));
+    return 1;
+  }
+
+  // options timestep 0 means opt.timestep
+  r->h = opt.timestep > 0 ? opt.timestep : r->m->opt.timestep;
+  return 0;
+}
+
+
+// Configure the engine, the step size and the step count; return 0 on success.
+static int sim_setup(const simArgs* a, simRun* r) {
+  r->ostrich = !strcmp(a->engine, "ostrich");
+  if (r->ostrich) {
+    if (sim_setupOstrich(a, r)) {
+      return 1;
+    }
+  } else {
+    r->h = a->h > 0 ? a->h : r->m->opt.timestep;
+  }
+
+  // keep the model consistent with the step size (stock stages read opt.timestep)
+  r->m->opt.timestep = r->h;
+  double duration = a->duration > 0 ? a->duration : SIM_DEFAULT_DURATION;
+  r->nstep = a->steps >= 0 ? a->steps : lround(duration / r->h);
+
+  // controls
+  if (a->ctrl) {
+    int nu = r->m->nu;
+    r->ctrl = (mjtNum*)malloc(sizeof(mjtNum) * (nu > 0 ? nu : 1));
+    if (!r->ctrl || cli_parseList("--ctrl", a->ctrl, r->ctrl, nu)) {
+      return 1;
+    }
+  }
+
+  // trajectory file
+  if (a->out && !(r->csv = fopen(a->out, "w"))) {
+    cli_error("cannot write '%s': %s", a->out, strerror(errno));
+    return 1;
+  }
+  return 0;
+}
+
+
+//---------------------------------- sim: stepping ------------------------------------------------
+
+// Seconds on the monotonic clock.
+static double cli_now(void) {
+  struct timespec t;
+  clock_gettime(CLOCK_MONOTONIC, &t);
+  return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+
+// Write the CSV header.
+static void sim_writeHeader(const simRun* r) {
+  fprintf(r->csv, "time");
+  for (int i = 0; i < r->m->nq; i++) {
+    fprintf(r->csv, ",qpos_%d", i);
+  }
+  for (int i = 0; i < r->m->nv; i++) {
+    fprintf(r->csv, ",qvel_%d", i);
+  }
+  fputc('\n', r->csv);
+}
+
+
+// Write the current state as one CSV row.
+static void sim_writeRow(const simRun* r) {
+  fprintf(r->csv, "%.10g", r->d->time);
+  for (int i = 0; i < r->m->nq; i++) {
+    fprintf(r->csv, ",%.10g", r->d->qpos[i]);
+  }
+  for (int i = 0; i < r->m->nv; i++) {
+    fprintf(r->csv, ",%.10g", r->d->qvel[i]);
+  }
+  fputc('\n', r->csv);
+}
+
+
+// Return 1 if qpos or qvel has a non-finite entry, 2 if MuJoCo found one and reset the state
+// (mj_checkPos/Vel/Acc warn and reset, so the bad values never reach the caller), else 0.
+static int sim_hasNan(const mjModel* m, const mjData* d) {
+  for (int i = 0; i < m->nq; i++) {
+    if (!isfinite(d->qpos[i])) {
+      return 1;
+    }
+  }
+  for (int i = 0; i < m->nv; i++) {
+    if (!isfinite(d->qvel[i])) {
+      return 1;
+    }
+  }
+  if (d->warning[mjWARN_BADQPOS].number || d->warning[mjWARN_BADQVEL].number ||
+      d->warning[mjWARN_BADQACC].number) {
+    return 2;
+  }
+  return 0;
+}
+
+
+// Accumulate the solver statistics of the last step.
+static void sim_accumulate(simRun* r) {
+  const mjData* d = r->d;
+  if (r->ostrich) {
+    const ostStats* s = ost_stats(d);
+    r->sum_residual += s ? s->residual : 0;
+    r->sum_iter += s ? s->newton_iter : 0;
+  } else {
+    // the solver stores statistics of its first mjNSOLVER iterations only
+    int last = (d->solver_iter < mjNSOLVER ? d->solver_iter : mjNSOLVER) - 1;
+    r->sum_residual += last >= 0 ? d->solver[last].gradient : 0;
+    r->sum_iter += d->solver_iter;
+  }
+  double p = ost_maxPenetration(r->m, d);
+  if (p > r->max_penetration) {
+    r->max_penetration = p;
+  }
+}
+
+
+// Take step k (0-based) and time it; return 0 on success, else print why.
+static int sim_stepOnce(simRun* r, long k) {
+  if (r->ctrl) {
+    mju_copy(r->d->ctrl, r->ctrl, r->m->nu);
+  }
+  double start = cli_now();
+  int status = OST_OK;
+  if (r->ostrich) {
+    status = ost_step(r->m, r->d);
+  } else {
+    mj_step(r->m, r->d);
+  }
+  r->wall += cli_now() - start;
+
+  if (status != OST_OK) {
+    cli_error("step %ld failed: %s", k + 1, ost_lastError(r->d));
+    return 1;
+  }
+  if (cli_mujocoError()) {
+    cli_error("step %ld failed: mujoco error: %s", k + 1, cli_mujocoError());
+    return 1;
+  }
+  return 0;
+}
+
+
+// Write the CSV row of the state after step k (0-based) and check it; return 1 to stop at a
+// non-finite state (a state that MuJoCo reset is not written), else 0.
+static int sim_record(simRun* r, long k) {
+  int bad = sim_hasNan(r->m, r->d);
+  if (r->csv && bad != 2) {
+    sim_writeRow(r);
+  }
+  if (!bad) {
+    return 0;
+  }
+  r->nan = 1;
+  if (bad == 1) {
+    cli_error("non-finite qpos or qvel after step %ld", k + 1);
+  } else {
+    cli_error("step %ld diverged: MuJoCo found a bad qpos/qvel/qacc and reset the state", k + 1);
+  }
+  return 1;
+}
+
+
+// Print a progress line every second on runs expected to take over 2 s; last: time of the last.
+static void sim_progress(const simRun* r, double start, double* last) {
+  double now = cli_now();
+  double expected = (now - start) * (double)r->nstep / (double)r->done;
+  if (now - *last >= 1.0 && expected > 2.0) {
+    fprintf(stderr, "ostrich: step %ld/%ld\n", r->done, r->nstep);
+    *last = now;
+  }
+}
+
+
+// Run the stepping loop; return CLI_OK or CLI_FAIL.
+static int sim_loop(simRun* r) {
+  const char* quiet = getenv("OSTRICH_QUIET");
+  int progress = !(quiet && quiet[0] && strcmp(quiet, "0"));
+  double start = cli_now(), last = start;
+
+  if (r->csv) {
+    sim_writeHeader(r);
+    sim_writeRow(r);
+  }
+  for (long k = 0; k < r->nstep; k++) {
+    if (sim_stepOnce(r, k)) {
+      return CLI_FAIL;
+    }
+    r->done++;
+    sim_accumulate(r);
+    if (sim_record(r, k)) {
+      return CLI_FAIL;
+    }
+    if (progress) {
+      sim_progress(r, start, &last);
+    }
+  }
+  return CLI_OK;
+}
+
+
+//---------------------------------- sim: report ---------------------------------------------------
+
+// Print a JSON number (null if not finite).
+static void cli_jsonNumber(FILE* f, double x) {
+  if (isfinite(x)) {
+    fprintf(f, "%.10g", x);
+  } else {
+    fputs("null", f);
+  }
+}
+
+
+// Print a JSON string with escapes.
+static void cli_jsonString(FILE* f, const char* s) {
+  fputc('"', f);
+  for (const unsigned char* c = (const unsigned char*)s; *c; c++) {
+    if (*c == '"' || *c == '\\') {
+      fprintf(f, "\\%c", *c);
+    } else if (*c < 0x20) {
+      fprintf(f, "\\u%04x", *c);
+    } else {
+      fputc(*c, f);
+    }
+  }
+  fputc('"', f);
+}
+
+
+// Print the one-line JSON summary on stdout.
+static void sim_report(const simArgs* a, const simRun* r) {
+  double n = r->done > 0 ? (double)r->done : 1.0;
+  printf("{\"engine\":");
+  cli_jsonString(stdout, a->engine);
+  printf(",\"model\":");
+  cli_jsonString(stdout, a->model);
+  printf(",\"h\":");
+  cli_jsonNumber(stdout, r->h);
+  printf(",\"steps\":%ld,\"wall_s\":%.6f,\"nan\":%s,\"max_penetration\":", r->done, r->wall,
+         r->nan ? "true" : "false");
+  cli_jsonNumber(stdout, r->max_penetration);
+  printf(",\"mean_residual\":");
+  cli_jsonNumber(stdout, r->sum_residual / n);
+  printf(",\"mean_newton_iter\":");
+  cli_jsonNumber(stdout, r->sum_iter / n);
+  printf(",\"final_qpos\":[");
+  for (int i = 0; i < r->m->nq; i++) {
+    if (i) {
+      putchar(',');
+    }
+    cli_jsonNumber(stdout, r->d->qpos[i]);
+  }
+  printf("]}\n");
+  fflush(stdout);
+}
+
+
+// Close the CSV file and free the run; return CLI_FAIL if the CSV could not be written.
+static int sim_free(simRun* r) {
+  int status = CLI_OK;
+  if (r->csv && (ferror(r->csv) | fclose(r->csv))) {
+    cli_error("error writing the CSV file");
+    status = CLI_FAIL;
+  }
+  if (r->d) {
+    if (r->ostrich) {
+      ost_deleteData(r->d);
+    } else {
+      mj_deleteData(r->d);
+    }
+  }
+  if (r->m) {
+    mj_deleteModel(r->m);
+  }
+  free(r->ctrl);
+  return status;
+}
+
+
+//---------------------------------- sim -----------------------------------------------------------
+
+// `ostrich sim MODEL.xml [options]`
+static int sim_main(int argc, char** argv) {
+  simArgs a;
+  if (sim_parseArgs(argc, argv, &a)) {
+    return CLI_USAGE;
+  }
+  if (a.help) {
+    sim_usage(stdout);
+    return CLI_OK;
+  }
+  if (sim_checkArgs(&a)) {
+    return CLI_USAGE;
+  }
+
+  // load, configure, step, report
+  simRun r = {0};
+  int status = CLI_USAGE;
+  if (!sim_loadModel(a.model, &r) && !sim_setup(&a, &r)) {
+    status = sim_loop(&r);
+    sim_report(&a, &r);
+  }
+  int freed = sim_free(&r);
+  return status != CLI_OK ? status : freed;
+}
+
+
+//---------------------------------- Dispatch ------------------------------------------------------
+
+typedef struct cliCommand_ {      // one subcommand
+  const char* name;               // word after `ostrich`
+  const char* summary;            // one line for the top-level usage
+  int (*run)(int argc, char** argv);  // entry point; argv excludes the subcommand name
+} cliCommand;
+
+static const cliCommand kCommands[] = {
+  {"sim", "simulate a model with Ostrich or stock MuJoCo; print a JSON summary", sim_main},
+};
+
+static const int kNumCommands = (int)(sizeof(kCommands) / sizeof(kCommands[0]));
+
+
+// Print the top-level usage.
+static void cli_usage(FILE* f) {
+  fprintf(f,
+    "usage: ostrich COMMAND [arguments]\n"
+    "       ostrich COMMAND --help\n"
+    "\n"
+    "Ostrich: implicit hard-contact time stepping for MuJoCo %s models.\n"
+    "\n"
+    "commands:\n", mj_versionString());
+  for (int i = 0; i < kNumCommands; i++) {
+    fprintf(f, "  %-10s %s\n", kCommands[i].name, kCommands[i].summary);
+  }
+  fprintf(f,
+    "\n"
+    "options:\n"
+    "  -h, --help  print this help and exit\n");
+}
+
+
+int main(int argc, char** argv) {
+  // before anything can reach MuJoCo's default handlers (which wait for Enter and exit)
+  mju_user_error = cli_onMujocoError;
+  mju_user_warning = cli_onMujocoWarning;
+
+  if (argc < 2) {
+    cli_usage(stderr);
+    return CLI_USAGE;
+  }
+  if (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h")) {
+    cli_usage(stdout);
+    return CLI_OK;
+  }
+  for (int i = 0; i < kNumCommands; i++) {
+    if (!strcmp(argv[1], kCommands[i].name)) {
+      return kCommands[i].run(argc - 2, argv + 2);
+    }
+  }
+  cli_error("unknown command '%s' (see ostrich --help)", argv[1]);
+  return CLI_USAGE;
+}

@@ -1,0 +1,187 @@
+#!/usr/bin/env bash
+# test_cli.sh: end-to-end tests of the `ostrich` command-line tool (plugin/ost_cli.c).
+# usage: bash tests/test_cli.sh PATH/TO/ostrich PATH/TO/mjcf_models
+# Checks usage errors (exit 2, one "ostrich:" line on stderr, nothing on stdout), then runs
+# `ostrich sim` on box_plane.xml (both engines) and robot_pallet.xml and checks the JSON line and
+# the CSV. Every check runs; the script exits 1 if any failed.
+set -euo pipefail
+
+if [[ $# -ne 2 ]]; then
+  echo "usage: bash $0 PATH/TO/ostrich PATH/TO/mjcf_models" >&2
+  exit 2
+fi
+BIN=$1
+MODELS=$2
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+nfail=0
+npass=0
+
+
+# report one check
+pass() { npass=$((npass + 1)); echo "ok:   $1"; }
+fail() {
+  nfail=$((nfail + 1))
+  echo "FAIL: $1" >&2
+  echo "      command: ostrich ${cmd[*]}" >&2
+  echo "      exit code: $rc" >&2
+  sed 's/^/      stdout: /' "$tmp/out" | head -n 5 >&2
+  sed 's/^/      stderr: /' "$tmp/err" | head -n 5 >&2
+}
+
+
+# run the tool; sets rc and leaves stdout/stderr in $tmp/out and $tmp/err
+run() {
+  cmd=("$@")
+  rc=0
+  "$BIN" "$@" >"$tmp/out" 2>"$tmp/err" || rc=$?
+}
+
+
+# expect_rc WANT DESC: check the exit code of the last run
+expect_rc() {
+  if [[ $rc -eq $1 ]]; then pass "$2 (exit $1)"; else fail "$2: expected exit $1"; fi
+}
+
+
+# expect_usage_error DESC ARGS...: exit 2, nothing on stdout, an "ostrich:" message on stderr
+expect_usage_error() {
+  local desc=$1
+  shift
+  run "$@"
+  if [[ $rc -ne 2 ]]; then
+    fail "$desc: expected exit 2"
+  elif [[ -s $tmp/out ]]; then
+    fail "$desc: expected nothing on stdout"
+  elif ! grep -q '^ostrich: ' "$tmp/err"; then
+    fail "$desc: expected a message starting with 'ostrich: ' on stderr"
+  else
+    pass "$desc (exit 2: $(grep -m1 '^ostrich: ' "$tmp/err"))"
+  fi
+}
+
+
+# expect_mentions DESC WORD...: every WORD appears in the stdout of the last run
+expect_mentions() {
+  local desc=$1 word missing=""
+  shift
+  for word in "$@"; do
+    grep -q -e "$word" "$tmp/out" || missing="$missing $word"
+  done
+  if [[ -z $missing ]]; then pass "$desc"; else fail "$desc: missing:$missing"; fi
+}
+
+
+# expect_py DESC EXPR [CSV]: python EXPR holds, with j = the single JSON line on stdout and
+# rows = the CSV file as lists of strings (header first); prints the values on failure
+expect_py() {
+  local desc=$1 expr=$2 csv=${3:-}
+  local why
+  if why=$(python3 - "$tmp/out" "$expr" "$csv" 2>&1 <<'EOF'
+import csv, json, sys
+lines = open(sys.argv[1]).read().splitlines()
+if len(lines) != 1:
+    sys.exit("stdout has %d lines, expected exactly one JSON line" % len(lines))
+j = json.loads(lines[0])
+rows = list(csv.reader(open(sys.argv[3]))) if sys.argv[3] else None
+try:
+    ok = eval("(" + sys.argv[2] + ")")
+except Exception as e:
+    sys.exit("%s: %s" % (type(e).__name__, e))
+if not ok:
+    info = "json: " + lines[0]
+    if rows:
+        info += "\ncsv: %d lines, %d columns; last: %s" % (
+            len(rows), len(rows[0]), ",".join(rows[-1]))
+    sys.exit(info)
+EOF
+  ); then
+    pass "$desc"
+  else
+    fail "$desc: $expr"
+    echo "$why" | sed 's/^/      /' >&2
+  fi
+}
+
+
+KEYS='["engine","model","h","steps","wall_s","nan","max_penetration","mean_residual",
+       "mean_newton_iter","final_qpos"]'
+OPTIONS=(--engine --h --duration --steps --ctrl --newton --pcr --out)
+BOX=$MODELS/box_plane.xml
+PALLET=$MODELS/robot_pallet.xml
+
+
+#---------------------------------- help ----------------------------------------------------------
+
+run --help
+expect_rc 0 "ostrich --help"
+expect_mentions "ostrich --help lists the sim command" "sim"
+run -h
+expect_rc 0 "ostrich -h"
+run sim --help
+expect_rc 0 "ostrich sim --help"
+expect_mentions "ostrich sim --help mentions every option" "${OPTIONS[@]}"
+run
+if [[ $rc -eq 2 && ! -s $tmp/out ]] && grep -q 'usage' "$tmp/err"; then
+  pass "no subcommand: usage on stderr (exit 2)"
+else
+  fail "no subcommand: expected usage on stderr and exit 2"
+fi
+
+
+#---------------------------------- usage errors --------------------------------------------------
+
+printf '<mujoco>\n  <worldbody>\n    <geom type="sphere" size="0.1">\n  </worldbody>\n</mujoco>\n' \
+  >"$tmp/broken.xml"
+
+expect_usage_error "unknown subcommand" frobnicate
+expect_usage_error "unknown option" sim "$BOX" --frobnicate 1
+expect_usage_error "missing value" sim "$BOX" --h
+expect_usage_error "non-numeric value" sim "$BOX" --h abc
+expect_usage_error "non-integer --steps" sim "$BOX" --steps 2.5
+expect_usage_error "unknown engine" sim "$BOX" --engine bullet
+expect_usage_error "missing model argument" sim
+expect_usage_error "missing model file" sim "$tmp/no_such_model.xml"
+expect_usage_error "malformed XML" sim "$tmp/broken.xml"
+expect_usage_error "--ctrl with the wrong count" sim "$PALLET" --ctrl 1,2 --steps 1
+expect_usage_error "--ctrl with a non-number" sim "$PALLET" --ctrl 1,x,2 --steps 1
+expect_usage_error "--duration and --steps together" sim "$BOX" --duration 1 --steps 10
+
+
+#---------------------------------- box on a plane (ostrich) --------------------------------------
+
+run sim "$BOX" --h 0.1 --steps 20 --out "$tmp/a.csv"
+expect_rc 0 "box_plane, ostrich, h = 0.1, 20 steps"
+expect_py "box_plane: JSON has every key" "all(k in j for k in $KEYS)"
+expect_py "box_plane: engine ostrich, h 0.1, 20 steps, no NaN" \
+  'j["engine"] == "ostrich" and j["h"] == 0.1 and j["steps"] == 20 and j["nan"] is False'
+expect_py "box_plane: CSV has a header and 21 rows of nq + nv + 1 = 14 columns" \
+  'len(rows) == 22 and all(len(r) == 14 for r in rows) and
+   rows[0][:2] == ["time", "qpos_0"] and rows[0][-1] == "qvel_5" and float(rows[1][0]) == 0' \
+  "$tmp/a.csv"
+expect_py "box_plane: the box rests (|z_final - z_0| < 1e-3)" \
+  'abs(float(rows[-1][3]) - float(rows[1][3])) < 1e-3 and abs(j["final_qpos"][2] - 0.1) < 1e-3' \
+  "$tmp/a.csv"
+
+
+#---------------------------------- box on a plane (mujoco) ---------------------------------------
+
+run sim "$BOX" --engine mujoco --h 0.002 --steps 100
+expect_rc 0 "box_plane, mujoco, h = 0.002, 100 steps"
+expect_py "box_plane mujoco: engine mujoco, 100 steps, no NaN" \
+  'j["engine"] == "mujoco" and j["h"] == 0.002 and j["steps"] == 100 and j["nan"] is False'
+
+
+#---------------------------------- robot climbing the pallet -------------------------------------
+
+run sim "$PALLET" --h 0.05 --duration 6 --ctrl 3,3,3 --out "$tmp/p.csv"
+expect_rc 0 "robot_pallet, ostrich, h = 0.05, 6 s, ctrl 3,3,3"
+expect_py "robot_pallet: 120 steps, no NaN" 'j["steps"] == 120 and j["nan"] is False'
+expect_py "robot_pallet: the robot drives onto the pallet (final chassis x > 2.0)" \
+  'j["final_qpos"][0] > 2.0 and float(rows[-1][1]) > 2.0' "$tmp/p.csv"
+
+
+#---------------------------------- summary -------------------------------------------------------
+
+echo "test_cli: $npass passed, $nfail failed"
+[[ $nfail -eq 0 ]]
