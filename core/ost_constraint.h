@@ -123,9 +123,11 @@ OST_HD void osti_matchRows(ostNum* lambda, ostNum* W, const ostRow* rows, int nr
     used[j] = 0;
   }
   for (int i = 0; i < nrow; i++) {
-    const ostRow* r = rows + i;
     lambda[i] = 0;
     W[i] = 0;
+  }
+  for (int i = 0; i < nrow; i++) {
+    const ostRow* r = rows + i;
     if (r->type == OST_ROW_FRICTION) {
       continue;  // handled with its normal row
     }
@@ -154,6 +156,8 @@ OST_HD void osti_matchRows(ostNum* lambda, ostNum* W, const ostRow* rows, int nr
         && best + 2 < nprev && prev[best + 1].type == OST_ROW_FRICTION) {
       lambda[i + 1] = prev_lambda[best + 1];
       lambda[i + 2] = prev_lambda[best + 2];
+      W[i + 1] = prev_W[best + 1];
+      W[i + 2] = prev_W[best + 2];
     }
   }
 }

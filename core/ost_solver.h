@@ -54,8 +54,8 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 3 * sizeof(ostNu
   X(ostNum,        lambda,        nrow_max, 1)   /* multipliers (forces, N or N m)         */   \
   X(ostNum,        lambda_prev,   nrow_max, 1)   /* multipliers of the previous iterate    */   \
   X(ostNum,        lambda_best,   nrow_max, 1)   /* multipliers of the best iterate        */   \
-  X(ostNum,        W,             nrow_max, 1)   /* friction weight, on contact rows       */   \
-  X(ostNum,        W_prev,        nrow_max, 1)   /* friction weight of the previous iterate*/   \
+  X(ostNum,        W,             nrow_max, 1)   /* friction mode (contact), direction (fr)*/   \
+  X(ostNum,        W_prev,        nrow_max, 1)   /* friction state of the previous iterate */   \
   X(ostNum,        diag,          nrow_max, 1)   /* J_i Mt^-1 J_i'                         */   \
   X(ostNum,        Ju,            nrow_max, 1)   /* J_i u                                  */   \
   X(ostNum,        c,             nrow_max, 1)   /* compliance of the linearized row       */   \
@@ -163,11 +163,20 @@ OST_HD ostNum osti_evaluate(ostWorld* w, const ostSolverOptions* opt) {
       break;
     }
     case OST_ROW_FRICTION: {
-      // J_f u + W lambda_f = 0 with W frozen at the value of the previous update   (eq. 7)
-      ostNum Wc = w->W[r->normal];
-      w->c[i] = Wc;
-      w->rho[i] = w->Ju[i] + Wc * lam;
-      m_i = w->rho[i];
+      // stick (W[normal] = 0): J_f u = 0.  slide (W[normal] = 1): the force is fixed on the
+      // cone, lambda_f = mu lambda_n d with d = W[i] opposing the slip (maximal dissipation),
+      // a decoupled row scaled by k = h J_i Mt^-1 J_i' (velocity per force)      (eq. 5-7)
+      if (w->W[r->normal] == 0) {
+        w->c[i] = 0;
+        w->rho[i] = w->Ju[i];
+        m_i = w->rho[i];
+      } else {
+        ostNum ln = w->lambda[r->normal] > 0 ? w->lambda[r->normal] : 0;
+        ostNum k = h * w->diag[i];
+        m_i = k * (lam - w->rows[r->normal].mu * ln * w->W[i]);
+        w->c[i] = k / 1e-12;
+        w->rho[i] = m_i / 1e-12;
+      }
       break;
     }
     case OST_ROW_SERVO: {
@@ -277,7 +286,7 @@ OST_HD int osti_pcr(ostWorld* w, ostNum* x, const ostNum* b, int maxit, ostNum r
 
 
 // one Newton update after osti_evaluate: solve the Schur system by PCR, back-substitute du,
-// refresh the friction weights from the updated (unprojected) iterate, then project the
+// refresh the friction modes from the updated (unprojected) iterate, then project the
 // multipliers (cone clamp, lambda_n >= 0, force range); returns the PCR iterations
 OST_HD int osti_newtonUpdate(ostWorld* w, const ostSolverOptions* opt) {
   int nv = w->nv, nrow = w->nrow;
@@ -302,8 +311,8 @@ OST_HD int osti_newtonUpdate(ostWorld* w, const ostSolverOptions* opt) {
     w->lambda[i] += dlam[i];
   }
 
-  // friction weights from the unprojected iterate, so that a sticking guess outside the cone
-  // turns into sliding at the next linearization (W is frozen within an iterate)
+  // friction modes from the unprojected iterate: a sticking force outside the cone starts
+  // sliding along it; a sliding contact whose slip turns along its force sticks again
   for (int i = 0; i + 2 < nrow; i++) {
     const ostRow* r = w->rows + i;
     if (r->type != OST_ROW_CONTACT || w->rows[i + 1].type != OST_ROW_FRICTION) {
@@ -311,11 +320,22 @@ OST_HD int osti_newtonUpdate(ostWorld* w, const ostSolverOptions* opt) {
     }
     ostNum s1 = ostu_dot(w->J + (size_t)(i + 1) * nv, w->qvel, nv);
     ostNum s2 = ostu_dot(w->J + (size_t)(i + 2) * nv, w->qvel, nv);
-    ostNum slip = sqrt(s1 * s1 + s2 * s2);
-    ostNum lf = sqrt(w->lambda[i + 1] * w->lambda[i + 1] + w->lambda[i + 2] * w->lambda[i + 2]);
-    ostNum ln = w->lambda[i] > 0 ? w->lambda[i] : 0;
-    ostNum k_t = h * 0.5 * (w->diag[i + 1] + w->diag[i + 2]);
-    w->W[i] = osti_frictionWeight(slip, lf, r->mu * ln, k_t, opt->fb_eps);
+    ostNum f1 = w->lambda[i + 1], f2 = w->lambda[i + 2];
+    ostNum slip = sqrt(s1 * s1 + s2 * s2), lf = sqrt(f1 * f1 + f2 * f2);
+    ostNum bound = r->mu * (w->lambda[i] > 0 ? w->lambda[i] : 0);
+    int slide = w->W[i] != 0;
+    if (!slide && lf > bound * (1 + 1e-6) && lf > 0) {
+      w->W[i] = 1;
+      w->W[i + 1] = f1 / lf;
+      w->W[i + 2] = f2 / lf;
+    } else if (slide && slip > 1e-7) {
+      if (s1 * w->W[i + 1] + s2 * w->W[i + 2] > 0) {
+        w->W[i] = 0;  // slip along the force: the contact sticks
+      } else {
+        w->W[i + 1] = -s1 / slip;
+        w->W[i + 2] = -s2 / slip;
+      }
+    }
   }
   osti_projectRows(w->lambda, w->rows, nrow);
   return it;

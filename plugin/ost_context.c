@@ -1,0 +1,178 @@
+// ost_context.c: the registry that attaches Ostrich's state to an mjData (MuJoCo 2.2.2 has no
+// plugin_data slot), plus the small accessors of ostrich.h. Mirrors engine_io.c's allocation.
+// Invariant: the registry is guarded by one mutex; a context is rebuilt whenever its mjData's
+// buffer or its model pointer changes, so a reused mjData address never sees stale state.
+#include <math.h>
+#include <pthread.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ost_internal.h"
+
+int ost_validateOptions(const ostOptions* opt, char* err, int err_sz);
+
+static pthread_mutex_t registry_lock = PTHREAD_MUTEX_INITIALIZER;
+static ostContext* registry = NULL;
+
+
+static void freeContext(ostContext* c) {
+  if (c->mo) {
+    mj_deleteModel(c->mo);
+  }
+  free(c->servo);
+  free(c->qpos_prev);
+  free(c->jac);
+  free(c->world_buf);
+  free(c);
+}
+
+
+// rows a step can need: equality (<= 6 per constraint), joint limits (<= 2 per joint),
+// contacts (<= 3 per contact, capacity nconmax) and one servo row per actuator
+static int rowCapacity(const mjModel* m) {
+  return 6 * m->neq + 2 * m->njnt + 3 * m->nconmax + m->nu;
+}
+
+
+// allocate a context for (m, d); options from the model, check deferred to the step
+static ostContext* newContext(const mjModel* m, const mjData* d) {
+  ostContext* c = (ostContext*)calloc(1, sizeof(ostContext));
+  if (!c) {
+    return NULL;
+  }
+  c->d = d;
+  c->d_buffer = d->buffer;
+  c->m = m;
+  c->servo = (int*)calloc(m->nu > 0 ? m->nu : 1, sizeof(int));
+  c->qpos_prev = (mjtNum*)calloc(m->nq > 0 ? m->nq : 1, sizeof(mjtNum));
+  c->jac = (mjtNum*)calloc(6 * (m->nv > 0 ? m->nv : 1), sizeof(mjtNum));
+  int nrow_max = rowCapacity(m);
+  size_t sz = ostu_worldSize(m->nv, nrow_max);
+  c->world_buf = aligned_alloc(64, (sz + 63) / 64 * 64);
+  if (!c->servo || !c->qpos_prev || !c->jac || !c->world_buf) {
+    freeContext(c);
+    return NULL;
+  }
+  memset(c->world_buf, 0, sz);
+  ostu_worldInit(&c->world, c->world_buf, m->nv, nrow_max, 0);
+  ost_defaultOptions(&c->opt);
+  return c;
+}
+
+
+ostContext* ost_findContext(const mjData* d) {
+  pthread_mutex_lock(&registry_lock);
+  ostContext* c = registry;
+  while (c && c->d != d) {
+    c = c->next;
+  }
+  pthread_mutex_unlock(&registry_lock);
+  return c;
+}
+
+
+// unlink and return the context of d (caller frees)
+static ostContext* unlinkContext(const mjData* d) {
+  ostContext** p = &registry;
+  while (*p && (*p)->d != d) {
+    p = &(*p)->next;
+  }
+  ostContext* c = *p;
+  if (c) {
+    *p = c->next;
+  }
+  return c;
+}
+
+
+ostContext* ost_context(const mjModel* m, const mjData* d) {
+  pthread_mutex_lock(&registry_lock);
+  ostContext* c = registry;
+  while (c && c->d != d) {
+    c = c->next;
+  }
+  // stale: same address, different buffer or model
+  if (c && (c->d_buffer != d->buffer || c->m != m)) {
+    c = unlinkContext(d);
+    freeContext(c);
+    c = NULL;
+  }
+  if (!c) {
+    c = newContext(m, d);
+    if (c) {
+      c->next = registry;
+      registry = c;
+    }
+  }
+  pthread_mutex_unlock(&registry_lock);
+  return c;
+}
+
+
+int ost_fail(ostContext* c, int status, const char* fmt, ...) {
+  va_list ap;
+  va_start(ap, fmt);
+  vsnprintf(c->err, sizeof(c->err), fmt, ap);
+  va_end(ap);
+  return status;
+}
+
+
+int ost_setOptions(const mjModel* m, mjData* d, const ostOptions* opt) {
+  if (!m) return -1;
+  if (!d) return -2;
+  if (!opt) return -3;
+  ostContext* c = ost_context(m, d);
+  if (!c) {
+    return OST_ERR_MEMORY;
+  }
+  int status = ost_validateOptions(opt, c->err, sizeof(c->err));
+  if (status) {
+    return status;
+  }
+  c->opt = *opt;
+  c->opt_user = 1;
+  return OST_OK;
+}
+
+
+const ostStats* ost_stats(const mjData* d) {
+  ostContext* c = ost_findContext(d);
+  return c ? &c->stats : NULL;
+}
+
+
+const char* ost_lastError(const mjData* d) {
+  ostContext* c = ost_findContext(d);
+  return c ? c->err : "";
+}
+
+
+void ost_detach(const mjData* d) {
+  pthread_mutex_lock(&registry_lock);
+  ostContext* c = unlinkContext(d);
+  pthread_mutex_unlock(&registry_lock);
+  if (c) {
+    freeContext(c);
+  }
+}
+
+
+void ost_deleteData(mjData* d) {
+  ost_detach(d);
+  mj_deleteData(d);
+}
+
+
+double ost_maxPenetration(const mjModel* m, const mjData* d) {
+  double pen = 0;
+  for (int i = 0; i < d->ncon; i++) {
+    const mjContact* con = d->contact + i;
+    if (con->exclude == 0 && -con->dist > pen) {
+      pen = -con->dist;
+    }
+  }
+  return pen;
+}

@@ -1,0 +1,47 @@
+// ost_internal.h: Ostrich's per-mjData context, shared by the plugin/ files (not public).
+// A context holds what Ostrich keeps beside an mjData: options, statistics, the last error, a
+// private model copy with look-ahead margins, and the one allocation of the core world.
+// Invariant: a context belongs to exactly one (mjData, d->buffer, mjModel) triple; if any of
+// them changes the context is rebuilt.
+#ifndef OSTRICH_PLUGIN_OST_INTERNAL_H_
+#define OSTRICH_PLUGIN_OST_INTERNAL_H_
+
+#include <mujoco/mujoco.h>
+
+#include "ost_solver.h"
+#include "ostrich.h"
+
+typedef struct ostContext_ {
+  const mjData*  d;               // the mjData this context serves
+  const void*    d_buffer;        // d->buffer when created (detects pointer reuse)
+  const mjModel* m;               // the user's model
+  mjModel*       mo;              // private copy of m with margins widened by opt.margin
+  ostOptions     opt;             // options in use
+  int            opt_user;        // 1 if set by ost_setOptions (not re-read from the model)
+  ostStats       stats;           // statistics of the last step
+  char           err[512];        // message of the last failure
+  int*           servo;           // 1 if actuator i is an implicit servo row     (nu)
+  mjtNum*        qpos_prev;       // q- of the current step                        (nq)
+  mjtNum*        jac;             // contact Jacobian scratch                      (6 x nv)
+  void*          world_buf;       // the core world's single allocation
+  ostWorld       world;           // core solver state, pointers into world_buf
+  struct ostContext_* next;       // registry list
+} ostContext;
+
+// find or create the context of (m, d); NULL only if allocation fails
+ostContext* ost_context(const mjModel* m, const mjData* d);
+
+// look up the context of d without creating one
+ostContext* ost_findContext(const mjData* d);
+
+// record a failure message on the context and return status
+int ost_fail(ostContext* c, int status, const char* fmt, ...);
+
+// fill the world's rows and Jacobians at the configuration in d->qpos using MuJoCo's own
+// kinematics and collision on the private model (the `mujoco` geometry provider)
+int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h);
+
+// classify actuator i: 1 implicit servo, 0 explicit force, -1 unsupported (message in err)
+int ost_actuatorKind(const mjModel* m, int i, char* err, int err_sz);
+
+#endif  // OSTRICH_PLUGIN_OST_INTERNAL_H_

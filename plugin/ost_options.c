@@ -1,0 +1,83 @@
+// ost_options.c: Ostrich options, their defaults, and their reading from MJCF
+// <custom><numeric name="ostrich/KEY" data="VALUE"/></custom> so that a model configured for
+// Ostrich still loads in stock MuJoCo 2.2.2. Invariant: one table lists every option.
+#include <stdio.h>
+#include <string.h>
+
+#include "ostrich.h"
+
+// every option: name, whether it is an integer, its field, its default
+#define OST_OPTIONS(X)                      \
+  X(newton_iter,   1, 16)                   \
+  X(pcr_iter,      1, 32)                   \
+  X(k_min,         1, 1)                    \
+  X(tol,           0, 1e-10)                \
+  X(pcr_tol,       0, 1e-12)                \
+  X(timestep,      0, 0)                    \
+  X(margin,        0, 0.01)                 \
+  X(fb_eps,        0, 1e-9)                 \
+  X(eq_compliance, 0, 0)
+
+void ost_defaultOptions(ostOptions* opt) {
+#define X(name, isint, def) opt->name = def;
+  OST_OPTIONS(X)
+#undef X
+}
+
+
+// check ranges; returns 0 or writes a message
+static int validate(const ostOptions* o, char* err, int err_sz) {
+  const char* bad = NULL;
+  if (o->newton_iter < 1 || o->newton_iter > 1000) bad = "newton_iter must be in [1, 1000]";
+  else if (o->pcr_iter < 1 || o->pcr_iter > 100000) bad = "pcr_iter must be in [1, 100000]";
+  else if (o->k_min < 0 || o->k_min > o->newton_iter) bad = "k_min must be in [0, newton_iter]";
+  else if (!(o->tol >= 0)) bad = "tol must be >= 0";
+  else if (!(o->pcr_tol >= 0)) bad = "pcr_tol must be >= 0";
+  else if (!(o->timestep >= 0) || o->timestep > 10) bad = "timestep must be in [0, 10] s";
+  else if (!(o->margin >= 0) || o->margin > 10) bad = "margin must be in [0, 10] m";
+  else if (!(o->fb_eps > 0)) bad = "fb_eps must be > 0";
+  else if (!(o->eq_compliance >= 0)) bad = "eq_compliance must be >= 0";
+  if (bad) {
+    if (err) snprintf(err, err_sz, "ostrich option: %s", bad);
+    return OST_ERR_MODEL;
+  }
+  return OST_OK;
+}
+
+
+int ost_readOptions(const mjModel* m, ostOptions* opt, char* err, int err_sz) {
+  if (!m) return -1;
+  if (!opt) return -2;
+  ost_defaultOptions(opt);
+  for (int i = 0; i < m->nnumeric; i++) {
+    const char* name = m->names + m->name_numericadr[i];
+    if (strncmp(name, "ostrich/", 8) != 0) {
+      continue;
+    }
+    const char* key = name + 8;
+    double v = m->numeric_data[m->numeric_adr[i]];
+    if (m->numeric_size[i] < 1) {
+      if (err) snprintf(err, err_sz, "ostrich option '%s' has no value", key);
+      return OST_ERR_MODEL;
+    }
+    int known = 0;
+#define X(field, isint, def)                     \
+    if (!strcmp(key, #field)) {                  \
+      opt->field = isint ? (int)v : v;           \
+      known = 1;                                 \
+    }
+    OST_OPTIONS(X)
+#undef X
+    if (!known) {
+      if (err) snprintf(err, err_sz, "unknown ostrich option '%s' in <custom>", key);
+      return OST_ERR_MODEL;
+    }
+  }
+  return validate(opt, err, err_sz);
+}
+
+
+// used by ost_setOptions in ost_context.c
+int ost_validateOptions(const ostOptions* opt, char* err, int err_sz) {
+  return validate(opt, err, err_sz);
+}

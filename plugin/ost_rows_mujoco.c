@@ -1,0 +1,169 @@
+// ost_rows_mujoco.c: the `mujoco` geometry provider. At a Newton iterate q it runs MuJoCo's own
+// kinematics, transmission and collision on the private model (margins widened by the
+// look-ahead distance) and packs the constraint rows of the core solver: equality and joint
+// limit rows from MuJoCo's efc rows, contact rows from d->contact and mj_jac, servo rows from
+// the actuators. Invariant: rows are produced in a deterministic order, so that evaluating the
+// same q twice yields identical rows (the best iterate is re-evaluated by index).
+#include <math.h>
+#include <string.h>
+
+#include "ost_internal.h"
+
+// copy efc row i of d into the dense row J (nv)
+static void efcRow(const mjModel* m, const mjData* d, int i, ostNum* J) {
+  int nv = m->nv;
+  if (mj_isSparse(m)) {
+    memset(J, 0, nv * sizeof(ostNum));
+    int adr = d->efc_J_rowadr[i];
+    for (int k = 0; k < d->efc_J_rownnz[i]; k++) {
+      J[d->efc_J_colind[adr + k]] = d->efc_J[adr + k];
+    }
+  } else {
+    memcpy(J, d->efc_J + (size_t)i * nv, nv * sizeof(ostNum));
+  }
+}
+
+
+// rows n, t1, t2 of a contact: frame rows times (J(body2) - J(body1)) at the contact point;
+// returns 0 if the contact moves no degree of freedom
+static int contactJacobian(ostContext* c, const mjData* d, const mjContact* con, ostNum* Jn,
+                           ostNum* Jt1, ostNum* Jt2) {
+  const mjModel* m = c->mo;
+  int nv = m->nv;
+  mjtNum* j1 = c->jac;
+  mjtNum* j2 = c->jac + 3 * nv;
+  int b1 = m->geom_bodyid[con->geom1], b2 = m->geom_bodyid[con->geom2];
+  memset(c->jac, 0, 6 * nv * sizeof(mjtNum));
+  if (b1 > 0) mj_jac(m, d, j1, NULL, con->pos, b1);
+  if (b2 > 0) mj_jac(m, d, j2, NULL, con->pos, b2);
+  int any = 0;
+  for (int j = 0; j < nv; j++) {
+    mjtNum dx = j2[j] - j1[j], dy = j2[nv + j] - j1[nv + j], dz = j2[2 * nv + j] - j1[2 * nv + j];
+    Jn[j] = con->frame[0] * dx + con->frame[1] * dy + con->frame[2] * dz;
+    if (Jt1) {
+      Jt1[j] = con->frame[3] * dx + con->frame[4] * dy + con->frame[5] * dz;
+      Jt2[j] = con->frame[6] * dx + con->frame[7] * dy + con->frame[8] * dz;
+    }
+    any |= Jn[j] != 0;
+  }
+  return any;
+}
+
+
+int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
+  const mjModel* m = c->mo;
+  ostWorld* w = &c->world;
+  int nv = m->nv, n = 0;
+  int warn_con = d->warning[mjWARN_CONTACTFULL].number;
+  int warn_efc = d->warning[mjWARN_CNSTRFULL].number;
+
+  // MuJoCo's geometry at q (prerequisites: collision needs kinematics, Jacobians need comPos)
+  mj_kinematics(m, d);
+  mj_comPos(m, d);
+  mj_tendon(m, d);
+  mj_transmission(m, d);
+  mj_collision(m, d);
+  mj_makeConstraint(m, d);
+  if (d->warning[mjWARN_CONTACTFULL].number != warn_con) {
+    return ost_fail(c, OST_ERR_OVERFLOW, "contact capacity exceeded: more than nconmax=%d "
+                    "contacts (raise <size nconmax=...>)", m->nconmax);
+  }
+  if (d->warning[mjWARN_CNSTRFULL].number != warn_efc) {
+    return ost_fail(c, OST_ERR_OVERFLOW, "constraint capacity exceeded: more than njmax=%d "
+                    "rows (raise <size njmax=...>)", m->njmax);
+  }
+#define NEED_ROWS(k)                                                                   \
+  if (n + (k) > w->nrow_max) {                                                         \
+    return ost_fail(c, OST_ERR_OVERFLOW, "row capacity %d exceeded", w->nrow_max);     \
+  }
+
+  // equality and joint-limit rows: MuJoCo's rows, whose J is d(efc_pos)/dq in tangent space
+  for (int i = 0, sub = 0; i < d->nefc; i++) {
+    int type = d->efc_type[i];
+    if (type != mjCNSTR_EQUALITY && type != mjCNSTR_LIMIT_JOINT) {
+      continue;
+    }
+    NEED_ROWS(1);
+    ostRow* r = w->rows + n;
+    memset(r, 0, sizeof(ostRow));
+    r->normal = -1;
+    efcRow(m, d, i, w->J + (size_t)n * nv);
+    if (type == mjCNSTR_EQUALITY) {
+      // sub-row index within one equality object (connect: 3 rows, weld: 6)
+      sub = (n > 0 && r[-1].type == OST_ROW_EQUALITY && r[-1].obj[0] == d->efc_id[i]) ? sub + 1 : 0;
+      r->type = OST_ROW_EQUALITY;
+      r->obj[0] = d->efc_id[i];
+      r->obj[1] = sub;
+      r->pos = d->efc_pos[i];
+      r->alpha = c->opt.eq_compliance;
+    } else {
+      // the private model's joint margin includes the look-ahead; the gap keeps the user's
+      r->type = OST_ROW_LIMIT;
+      r->obj[0] = d->efc_id[i];
+      r->obj[1] = w->J[(size_t)n * nv + m->jnt_dofadr[d->efc_id[i]]] > 0;
+      r->pos = d->efc_pos[i] - d->efc_margin[i] + c->opt.margin;
+    }
+    n++;
+  }
+
+  // contact rows: normal then two tangents in the contact frame (frame[0:3] from geom1 to
+  // geom2, so J_n u > 0 separates); contacts within the look-ahead distance are candidates
+  for (int i = 0; i < d->ncon; i++) {
+    const mjContact* con = d->contact + i;
+    if (con->exclude > 1) {
+      continue;  // fused, equality-joined or without degrees of freedom
+    }
+    int fric = con->dim >= 3 && con->friction[0] > 0;
+    NEED_ROWS(fric ? 3 : 1);
+    ostNum* Jn = w->J + (size_t)n * nv;
+    if (!contactJacobian(c, d, con, Jn, fric ? Jn + nv : NULL, fric ? Jn + 2 * nv : NULL)) {
+      continue;
+    }
+    for (int k = 0; k < (fric ? 3 : 1); k++) {
+      ostRow* r = w->rows + n + k;
+      memset(r, 0, sizeof(ostRow));
+      r->type = k == 0 ? OST_ROW_CONTACT : OST_ROW_FRICTION;
+      r->normal = k == 0 ? -1 : n;
+      r->obj[0] = con->geom1;
+      r->obj[1] = con->geom2;
+      r->key[0] = con->pos[0];
+      r->key[1] = con->pos[1];
+      r->key[2] = con->pos[2];
+      r->pos = con->dist - con->includemargin + c->opt.margin;  // user's margin - gap
+      r->mu = con->friction[0];
+    }
+    n += fric ? 3 : 1;
+  }
+
+  // implicit servo rows: force = g ctrl + b0 + b1 L(q) + b2 V, V = moment u          (eq. 8)
+  if (!(m->opt.disableflags & mjDSBL_ACTUATION)) {
+    for (int i = 0; i < m->nu; i++) {
+      if (!c->servo[i]) {
+        continue;
+      }
+      NEED_ROWS(1);
+      const mjtNum* g = m->actuator_gainprm + i * mjNGAIN;
+      const mjtNum* b = m->actuator_biasprm + i * mjNBIAS;
+      mjtNum ctrl = d->ctrl[i];
+      if (m->actuator_ctrllimited[i] && !(m->opt.disableflags & mjDSBL_CLAMPCTRL)) {
+        const mjtNum* cr = m->actuator_ctrlrange + 2 * i;
+        ctrl = ctrl < cr[0] ? cr[0] : (ctrl > cr[1] ? cr[1] : ctrl);
+      }
+      ostRow* r = w->rows + n;
+      memset(r, 0, sizeof(ostRow));
+      r->type = OST_ROW_SERVO;
+      r->normal = -1;
+      r->obj[0] = i;
+      r->pos = g[0] * ctrl + b[0] + b[1] * d->actuator_length[i];
+      r->mu = b[2];
+      r->alpha = 1 / (-b[2] - h * b[1]);  // 1 / (kd + h kp)
+      r->lo = m->actuator_forcelimited[i] ? m->actuator_forcerange[2 * i] : -HUGE_VAL;
+      r->hi = m->actuator_forcelimited[i] ? m->actuator_forcerange[2 * i + 1] : HUGE_VAL;
+      memcpy(w->J + (size_t)n * nv, d->actuator_moment + (size_t)i * nv, nv * sizeof(ostNum));
+      n++;
+    }
+  }
+#undef NEED_ROWS
+  w->nrow = n;
+  return OST_OK;
+}

