@@ -1,6 +1,8 @@
 // fixture.c: see fixture.h.
 #include "fixture.h"
 
+#include "ostrich.h"
+
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -72,4 +74,12 @@ int ost_fixtureRun(Suite* s) {
   int nfailed = srunner_ntests_failed(sr);
   srunner_free(sr);
   return nfailed == 0 ? EXIT_SUCCESS : EXIT_FAILURE;
+}
+
+
+void ost_fixtureSetTimestep(const mjModel* m, mjData* d, double h) {
+  ostOptions opt;
+  ck_assert_int_eq(ost_readOptions(m, &opt, NULL, 0), OST_OK);
+  opt.timestep = h;
+  ck_assert_int_eq(ost_setOptions(m, d, &opt), OST_OK);
 }

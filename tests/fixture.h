@@ -21,6 +21,9 @@ mjModel* ost_fixtureLoadString(const char* xml);
 // load a model from an XML string; returns NULL and the message in err on error
 mjModel* ost_fixtureTryLoadString(const char* xml, char* err, int err_sz);
 
+// make Ostrich step d with timestep h (the model's other ostrich/* options kept)
+void ost_fixtureSetTimestep(const mjModel* m, mjData* d, double h);
+
 // run a suite and return the process exit status
 int ost_fixtureRun(Suite* s);
 

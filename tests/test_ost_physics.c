@@ -8,15 +8,6 @@
 #include "fixture.h"
 #include "ostrich.h"
 
-// set the timestep used by Ostrich for d
-static void setTimestep(const mjModel* m, mjData* d, double h) {
-  ostOptions opt;
-  ck_assert_int_eq(ost_readOptions(m, &opt, NULL, 0), OST_OK);
-  opt.timestep = h;
-  ck_assert_int_eq(ost_setOptions(m, (mjData*)d, &opt), OST_OK);
-}
-
-
 // a 0.2 m box of 1 kg on a plane with friction mu, gravity tilted by theta (an incline)
 static mjModel* incline(double theta_deg, double mu) {
   char xml[2048];
@@ -36,7 +27,7 @@ START_TEST(test_boxRests) {
   ost_fixtureSetup();
   mjModel* m = ost_fixtureLoadModel("box_plane.xml");
   mjData* d = mj_makeData(m);
-  setTimestep(m, d, 0.1);
+  ost_fixtureSetTimestep(m, d, 0.1);
   double x0 = d->qpos[0], y0 = d->qpos[1], pen = 0;
   for (int k = 0; k < 100; k++) {
     ck_assert_int_eq(ost_step(m, d), OST_OK);
@@ -64,7 +55,7 @@ START_TEST(test_inclineSliding) {
     int n = (int)lround(T / h);
     mjModel* m = incline(35, mu);
     mjData* d = mj_makeData(m);
-    setTimestep(m, d, h);
+    ost_fixtureSetTimestep(m, d, h);
     double t = 35 * M_PI / 180, a_true = g * (sin(t) - mu * cos(t)), v_half = 0;
     for (int k = 0; k < n; k++) {
       ck_assert_int_eq(ost_step(m, d), OST_OK);
@@ -93,7 +84,7 @@ START_TEST(test_pendulumClosedForm) {
       "<geom type='capsule' fromto='0 0 0 0 0 -1' size='0.001' mass='0' contype='0'"
       " conaffinity='0'/></body></worldbody></mujoco>");
   mjData* d = mj_makeData(m);
-  setTimestep(m, d, 0.05);
+  ost_fixtureSetTimestep(m, d, 0.05);
   double h = 0.05, q = 0.5, u = 0, I = m->body_mass[1] * 1 + 0;
   mj_forward(m, d);
   I = 0;  // exact inertia about the hinge from MuJoCo's mass matrix
@@ -124,7 +115,7 @@ START_TEST(test_servoAnyGain) {
       m->actuator_biasprm[i * mjNBIAS + 1] = -kp;
     }
     mjData* d = mj_makeData(m);
-    setTimestep(m, d, 0.1);
+    ost_fixtureSetTimestep(m, d, 0.1);
     double target[3] = {0.5, -0.3, 0.2};
     for (int i = 0; i < m->nu; i++) d->ctrl[i] = target[i];
     for (int k = 0; k < 200; k++) {

@@ -6,19 +6,12 @@
 #include "fixture.h"
 #include "ostrich.h"
 
-static void setTimestep(const mjModel* m, mjData* d, double h) {
-  ostOptions opt;
-  ck_assert_int_eq(ost_readOptions(m, &opt, NULL, 0), OST_OK);
-  opt.timestep = h;
-  ck_assert_int_eq(ost_setOptions(m, d, &opt), OST_OK);
-}
-
 START_TEST(test_robotRests) {
   ost_fixtureSetup();
   mjModel* m = ost_fixtureLoadModel("wheeled_robot.xml");
   ck_assert_double_eq_tol(mj_getTotalmass(m), 106, 1e-9);
   mjData* d = mj_makeData(m);
-  setTimestep(m, d, 0.05);
+  ost_fixtureSetTimestep(m, d, 0.05);
   for (int k = 0; k < 40; k++) ck_assert_int_eq(ost_step(m, d), OST_OK);
   printf("robot at rest h=0.05: |x| %.3g, z %.6f, residual %.2g\n", fabs(d->qpos[0]), d->qpos[2],
          ost_stats(d)->residual);
@@ -34,7 +27,7 @@ START_TEST(test_robotSpeed) {
   mjModel* m = ost_fixtureLoadModel("wheeled_robot.xml");
   mjData* d = mj_makeData(m);
   double h = 0.01, w = 3, r = 0.35;
-  setTimestep(m, d, h);
+  ost_fixtureSetTimestep(m, d, h);
   for (int i = 0; i < m->nu; i++) d->ctrl[i] = w;
   // average forward speed over the last second of 3 s
   double x1 = 0;
