@@ -172,10 +172,10 @@ expect_py "box_plane mujoco: engine mujoco, 100 steps, no NaN" \
   'j["engine"] == "mujoco" and j["h"] == 0.002 and j["steps"] == 100 and j["nan"] is False'
 
 
-#---------------------------------- the wheeled robot -------------------------------------------
-# Ostrich drives the robot on flat ground at h = 0.01 s (w r = 1.05 m/s for 2 s); the pallet
-# climb is run with stock MuJoCo here: Ostrich's climb at h >= 0.05 s does not converge yet
-# (issue 2, open), so it is not asserted.
+#---------------------------------- the wheeled robot ---------------------------------------------
+# Ostrich drives the robot on flat ground at h = 0.01 s (w r = 1.05 m/s for 2 s); stock MuJoCo
+# climbs the pallet at h = 2 ms (the reference); Ostrich must climb it at h = 0.05 s, the main job
+# (this last check fails while the solver does not converge there: README, issue 2).
 
 ROBOT=$MODELS/wheeled_robot.xml
 run sim "$ROBOT" --h 0.01 --duration 2 --ctrl 3,3,3 --out "$tmp/r.csv"
@@ -183,9 +183,15 @@ expect_rc 0 "wheeled_robot, ostrich, h = 0.01, 2 s, ctrl 3,3,3"
 expect_py "wheeled_robot: 200 steps, no NaN, drives ~2.1 m forward" \
   'j["steps"] == 200 and j["nan"] is False and 1.9 < j["final_qpos"][0] < 2.2'
 
-run sim "$PALLET" --engine mujoco --h 0.002 --duration 6 --ctrl 3,3,3 --out "$tmp/p.csv"
+run sim "$PALLET" --engine mujoco --h 0.002 --duration 6 --ctrl 3,3,3 --out "$tmp/pm.csv"
 expect_rc 0 "robot_pallet, mujoco, h = 0.002, 6 s, ctrl 3,3,3"
 expect_py "robot_pallet (mujoco): the robot drives over the pallet (final chassis x > 2.0)" \
+  'j["final_qpos"][0] > 2.0 and float(rows[-1][1]) > 2.0' "$tmp/pm.csv"
+
+run sim "$PALLET" --h 0.05 --duration 6 --ctrl 3,3,3 --out "$tmp/p.csv"
+expect_rc 0 "robot_pallet, ostrich, h = 0.05, 6 s, ctrl 3,3,3"
+expect_py "robot_pallet: 120 steps, no NaN" 'j["steps"] == 120 and j["nan"] is False'
+expect_py "robot_pallet: the robot drives onto the pallet (final chassis x > 2.0)" \
   'j["final_qpos"][0] > 2.0 and float(rows[-1][1]) > 2.0' "$tmp/p.csv"
 
 
