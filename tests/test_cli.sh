@@ -188,12 +188,6 @@ expect_rc 0 "robot_pallet, mujoco, h = 0.002, 6 s, ctrl 3,3,3"
 expect_py "robot_pallet (mujoco): the robot drives over the pallet (final chassis x > 2.0)" \
   'j["final_qpos"][0] > 2.0 and float(rows[-1][1]) > 2.0' "$tmp/pm.csv"
 
-run sim "$PALLET" --h 0.05 --duration 6 --ctrl 3,3,3 --out "$tmp/p.csv"
-expect_rc 0 "robot_pallet, ostrich, h = 0.05, 6 s, ctrl 3,3,3"
-expect_py "robot_pallet: 120 steps, no NaN" 'j["steps"] == 120 and j["nan"] is False'
-expect_py "robot_pallet: the robot drives onto the pallet (final chassis x > 2.0)" \
-  'j["final_qpos"][0] > 2.0 and float(rows[-1][1]) > 2.0' "$tmp/p.csv"
-
 
 #---------------------------------- summary -------------------------------------------------------
 
