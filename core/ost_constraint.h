@@ -51,27 +51,6 @@ OST_HD ostNum osti_fb(ostNum a, ostNum b, ostNum eps, ostNum* fa, ostNum* fb) {
 }
 
 
-// friction weight W >= 0 of one contact (DESIGN.md section 1, Macklin et al. 2019):
-//   W = max(0, (s - phi(s, g)) / max(|lambda_f|, mu*lambda_n)),  g = k_t (mu lambda_n - |lambda_f|)
-// with slip speed s = |J_f u| and k_t (m/s per N) mapping force to velocity. At a solution W = 0
-// when sticking and W = s / (mu lambda_n) when sliding, so converged forces obey Coulomb's law.
-OST_HD ostNum osti_frictionWeight(ostNum slip, ostNum lambda_f_norm, ostNum mu_lambda_n,
-                                  ostNum k_t, ostNum eps) {
-  ostNum fa, fb;
-  ostNum g = k_t * (mu_lambda_n - lambda_f_norm);
-  ostNum num = slip - osti_fb(slip, g, eps, &fa, &fb);
-  ostNum den = lambda_f_norm > mu_lambda_n ? lambda_f_norm : mu_lambda_n;
-  if (!(den > 1e-300)) {
-    den = 1e-300;
-  }
-  ostNum W = num / den;
-  if (W > 1e300) {
-    W = 1e300;
-  }
-  return W > 0 ? W : 0;
-}
-
-
 // project the multipliers onto their admissible sets (paper section III-B safeguards):
 // lambda_n >= 0, |lambda_f| <= mu lambda_n (cone clamp), servo forces within forcerange
 OST_HD void osti_projectRows(ostNum* lambda, const ostRow* rows, int nrow) {
