@@ -1,6 +1,6 @@
 // ost_constraint.h: constraint rows of one Ostrich step (DESIGN.md section 1; paper eq. 3-7).
 // Mirrors engine_core_constraint.c: the row description, the Fischer-Burmeister (FB) function,
-// the friction weight W with its safeguards, the projection of multipliers onto their admissible
+// the projection of multipliers onto their admissible
 // sets, and the matching of multipliers across Newton iterates whose contact sets differ.
 //
 // Row layout contract: a contact contributes one OST_ROW_CONTACT (normal) row, immediately
@@ -92,18 +92,17 @@ OST_HD void osti_projectRows(ostNum* lambda, const ostRow* rows, int nrow) {
 }
 
 
-// copy multipliers and friction weights from the previous iterate's rows to the new rows:
+// copy multipliers from the previous iterate's rows to the new rows:
 // same type and objects; contacts of one geom pair are paired with the nearest unused previous
 // contact. Unmatched rows start at zero. used is scratch (nprev).
-OST_HD void osti_matchRows(ostNum* lambda, ostNum* W, const ostRow* rows, int nrow,
-                           const ostNum* prev_lambda, const ostNum* prev_W,
-                           const ostRow* prev, int nprev, unsigned char* used) {
+OST_HD void osti_matchRows(ostNum* lambda, const ostRow* rows, int nrow,
+                           const ostNum* prev_lambda, const ostRow* prev, int nprev,
+                           unsigned char* used) {
   for (int j = 0; j < nprev; j++) {
     used[j] = 0;
   }
   for (int i = 0; i < nrow; i++) {
     lambda[i] = 0;
-    W[i] = 0;
   }
   for (int i = 0; i < nrow; i++) {
     const ostRow* r = rows + i;
@@ -129,14 +128,11 @@ OST_HD void osti_matchRows(ostNum* lambda, ostNum* W, const ostRow* rows, int nr
     }
     used[best] = 1;
     lambda[i] = prev_lambda[best];
-    W[i] = prev_W[best];
     // friction rows of a matched contact inherit the previous tangential multipliers
     if (r->type == OST_ROW_CONTACT && i + 2 < nrow && rows[i + 1].type == OST_ROW_FRICTION
         && best + 2 < nprev && prev[best + 1].type == OST_ROW_FRICTION) {
       lambda[i + 1] = prev_lambda[best + 1];
       lambda[i + 2] = prev_lambda[best + 2];
-      W[i + 1] = prev_W[best + 1];
-      W[i + 2] = prev_W[best + 2];
     }
   }
 }

@@ -33,9 +33,10 @@ typedef struct ostSolverOptions_ {  // per-step solver settings (see ostOptions 
   ostNum tol;                       // merit residual for early exit (m/s)
   ostNum pcr_tol;                   // relative PCR residual for early exit
   ostNum fb_eps;                    // FB smoothing
+  ostNum reg;                       // relative compliance delta of contact and sticking rows
 } ostSolverOptions;
 
-OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 3 * sizeof(ostNum),
+OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 4 * sizeof(ostNum),
                   "ostSolverOptions crosses the gcc/nvcc boundary: keep it unpadded");
 
 // One world's arrays. The X-macro is the single description of the layout: it drives the size
@@ -46,6 +47,8 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 3 * sizeof(ostNu
   X(ostNum,        M,             nv,       nv)  /* M + h D, then its Cholesky factor      */   \
   X(ostNum,        qvel,          nv,       1)   /* current iterate u                      */   \
   X(ostNum,        qvel_best,     nv,       1)   /* best iterate u                         */   \
+  X(ostNum,        qvel_base,     nv,       1)   /* u where the Newton direction was taken */   \
+  X(ostNum,        dqvel,         nv,       1)   /* Newton direction du                    */   \
   X(ostNum,        Minv_rdyn,     nv,       1)   /* Mt^-1 r_dyn at the iterate             */   \
   X(ostNum,        tmp,           nv,       2)   /* scratch                                */   \
   X(ostRow,        rows,          nrow_max, 1)   /* rows of the current iterate            */   \
@@ -53,14 +56,17 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 3 * sizeof(ostNu
   X(ostNum,        J,             nrow_max, nv)  /* row Jacobians at q(u)                  */   \
   X(ostNum,        lambda,        nrow_max, 1)   /* multipliers (forces, N or N m)         */   \
   X(ostNum,        lambda_prev,   nrow_max, 1)   /* multipliers of the previous iterate    */   \
+  X(ostNum,        dlambda,       nrow_max, 1)   /* Newton direction (contact frame)       */   \
+  X(ostNum,        lambda_trial,  nrow_max, 1)   /* trial multipliers on the previous rows */   \
   X(ostNum,        lambda_best,   nrow_max, 1)   /* multipliers of the best iterate        */   \
-  X(ostNum,        W,             nrow_max, 1)   /* friction mode (contact), direction (fr)*/   \
-  X(ostNum,        W_prev,        nrow_max, 1)   /* friction state of the previous iterate */   \
+  X(ostRow,        rows_warm,     nrow_max, 1)   /* rows of the last step's result         */   \
+  X(ostNum,        lambda_warm,   nrow_max, 1)   /* multipliers of the last step's result  */   \
+  X(ostNum,        W,             nrow_max, 1)   /* friction: slide flag, slip frame, W    */   \
   X(ostNum,        diag,          nrow_max, 1)   /* J_i Mt^-1 J_i'                         */   \
   X(ostNum,        Ju,            nrow_max, 1)   /* J_i u                                  */   \
   X(ostNum,        c,             nrow_max, 1)   /* compliance of the linearized row       */   \
   X(ostNum,        rho,           nrow_max, 1)   /* residual of the linearized row         */   \
-  X(ostNum,        pcr,           nrow_max, 7)   /* PCR vectors b x r z p Az Ap            */   \
+  X(ostNum,        pcr,           nrow_max, 6)   /* PCR vectors b r z p Az Ap              */   \
   X(unsigned char, used,          nrow_max, 1)   /* matching scratch                       */
 
 typedef struct ostWorld_ {        // one world: sizes and pointers into one allocation
@@ -68,6 +74,7 @@ typedef struct ostWorld_ {        // one world: sizes and pointers into one allo
   int    nrow;                    // rows of the current iterate
   int    nrow_max;                // row capacity
   int    nrow_prev;               // rows of the previous iterate
+  int    nrow_warm;               // rows of the last step's result (0: none)
   ostNum h;                       // timestep (s)
 #define X(type, name, r, c) type* name;
   OST_WORLD_ARRAYS(X)
@@ -92,6 +99,7 @@ OST_HD void ostu_worldInit(ostWorld* w, void* buf, int nv, int nrow_max, ostNum 
   w->nrow = 0;
   w->nrow_max = nrow_max;
   w->nrow_prev = 0;
+  w->nrow_warm = 0;
   w->h = h;
 #define X(type, name, r, c)                                         \
   w->name = (type*)p;                                               \
@@ -107,9 +115,79 @@ OST_HD int osti_factorMass(ostWorld* w) {
 }
 
 
-// evaluate the iterate (qvel, lambda, W) with the rows and J filled for q(qvel): fills
+// compliance factor of a row whose force is fixed (its Newton update is dlambda = target - lambda)
+#define OST_FIXED_ROW 1e12
+
+
+// rotate rows a, b of J by the unit vector (e1, e2): a <- e1 a + e2 b, b <- -e2 a + e1 b
+OST_HD void osti_rotateRows(ostNum* a, ostNum* b, ostNum e1, ostNum e2, int n) {
+  for (int j = 0; j < n; j++) {
+    ostNum x = a[j], y = b[j];
+    a[j] = e1 * x + e2 * y;
+    b[j] = -e2 * x + e1 * y;
+  }
+}
+
+
+// row forms of the two friction rows i+1, i+2 of contact i (paper eq. 5-7), Coulomb friction by
+// maximal dissipation written as Alart-Curnier's semismooth equation
+//   G = lambda_f - proj_{|.| <= mu lambda_n}(z),   z = lambda_f - (s + c_s lambda_f) / k_f
+// with slip s = J_f u, k_f = h (J_f Mt^-1 J_f')avg (velocity per force) and the sticking
+// compliance c_s = reg k_f, which makes the force distribution of redundant contacts unique.
+// Stick (|z| <= mu lambda_n): J_f du + c_s dlambda_f = -(s + c_s lambda_f), rotation-invariant.
+// Slide: the rows are rotated into the frame (e, e_perp) of z (W[i] = 1, W[i+1..i+2] = e); along
+// e the force is fixed on the cone (lagged lambda_n), across it the compliance weight is
+//   W = c_s + k_f (1 - beta) / beta,  beta = mu lambda_n / |z|  (W = slip / |lambda_f| at the
+// solution). Returns the squared merit |G|^2 k_f^2 (velocity units).
+OST_HD ostNum osti_frictionRows(ostWorld* w, int i, ostNum reg) {
+  int nv = w->nv, a = i + 1, b = i + 2;
+  ostNum kf = w->h * 0.5 * (w->diag[a] + w->diag[b]);
+  ostNum cs = reg * kf;
+  ostNum bound = w->rows[i].mu * (w->lambda[i] > 0 ? w->lambda[i] : 0);
+  ostNum l1 = w->lambda[a], l2 = w->lambda[b];
+  ostNum z1 = l1 - (w->Ju[a] + cs * l1) / kf, z2 = l2 - (w->Ju[b] + cs * l2) / kf;
+  ostNum zn = sqrt(z1 * z1 + z2 * z2);
+  if (zn <= bound) {
+    w->W[i] = 0;
+    w->c[a] = w->c[b] = cs;
+    w->rho[a] = w->Ju[a] + cs * l1;
+    w->rho[b] = w->Ju[b] + cs * l2;
+    return w->rho[a] * w->rho[a] + w->rho[b] * w->rho[b];
+  }
+  ostNum e1 = z1 / zn, e2 = z2 / zn;  // zn > bound >= 0
+  w->W[i] = 1;
+  w->W[a] = e1;
+  w->W[b] = e2;
+  osti_rotateRows(w->J + (size_t)a * nv, w->J + (size_t)b * nv, e1, e2, nv);
+  ostNum* t = w->tmp + nv;
+  w->diag[a] = ostu_cholNormSqr(t, w->M, w->J + (size_t)a * nv, nv);
+  w->diag[b] = ostu_cholNormSqr(t, w->M, w->J + (size_t)b * nv, nv);
+  w->diag[a] = w->diag[a] > 1e-300 ? w->diag[a] : 1e-300;
+  w->diag[b] = w->diag[b] > 1e-300 ? w->diag[b] : 1e-300;
+  ostNum s1 = w->Ju[a], s2 = w->Ju[b];
+  w->Ju[a] = e1 * s1 + e2 * s2;
+  w->Ju[b] = -e2 * s1 + e1 * s2;
+  ostNum lpar = e1 * l1 + e2 * l2, lperp = -e2 * l1 + e1 * l2;
+  ostNum mpar = kf * (lpar - bound), mperp = kf * lperp;
+  w->c[a] = kf * OST_FIXED_ROW;
+  w->rho[a] = mpar * OST_FIXED_ROW;
+  ostNum beta = bound / zn;
+  if (beta * (OST_FIXED_ROW + 1) > 1) {
+    w->c[b] = cs + kf * (1 - beta) / beta;
+    w->rho[b] = mperp / beta;
+  } else {
+    w->c[b] = kf * OST_FIXED_ROW;  // no normal force: the tangential force goes to zero
+    w->rho[b] = mperp * OST_FIXED_ROW;
+  }
+  return mpar * mpar + mperp * mperp;
+}
+
+
+// evaluate the iterate (qvel, lambda) with the rows and J filled for q(qvel): fills
 // Minv_rdyn, diag, Ju and the row form (c, rho); returns the squared merit residual
 //   |Mt^-1 r_dyn|^2 + sum_i m_i^2,  every term a velocity (m/s or rad/s)
+// The friction rows of sliding contacts are left rotated into their slip frame (see
+// osti_frictionRows); osti_newtonUpdate rotates them back.
 OST_HD ostNum osti_evaluate(ostWorld* w, const ostSolverOptions* opt) {
   int nv = w->nv, nrow = w->nrow;
   ostNum h = w->h;
@@ -134,6 +212,7 @@ OST_HD ostNum osti_evaluate(ostWorld* w, const ostSolverOptions* opt) {
     w->Ju[i] = ostu_dot(Ji, w->qvel, nv);
     ostNum d = ostu_cholNormSqr(t2, w->M, Ji, nv);
     w->diag[i] = d > 1e-300 ? d : 1e-300;
+    w->W[i] = 0;
   }
 
   // row forms; FB rows are divided by h*phi_a so that all rows share J_i as their Jacobian
@@ -151,34 +230,24 @@ OST_HD ostNum osti_evaluate(ostWorld* w, const ostSolverOptions* opt) {
     }
     case OST_ROW_LIMIT:
     case OST_ROW_CONTACT: {
-      // FB(gap, k lambda) = 0 with the effective-mass scale k = h^2 J_i Mt^-1 J_i' (m/N):
-      // the displacement an impulse h*lambda causes in one step, so both arguments are metres
+      // FB(gap + reg k lambda, k lambda) = 0 with the effective-mass scale k = h^2 J_i Mt^-1 J_i'
+      // (m/N): the displacement an impulse h*lambda causes in one step, so both arguments are
+      // metres; the compliance reg*k makes the forces of redundant contacts unique
       ostNum k = h * h * w->diag[i];
       ostNum fa, fb;
-      ostNum phi = osti_fb(r->pos, k * lam, opt->fb_eps, &fa, &fb);
+      ostNum phi = osti_fb(r->pos + opt->reg * k * lam, k * lam, opt->fb_eps, &fa, &fb);
       ostNum a = fa > 1e-12 ? fa : 1e-12;
-      w->c[i] = fb * k / (h * a);
+      w->c[i] = opt->reg * k / h + fb * k / (h * a);
       w->rho[i] = phi / (h * a);
       m_i = phi / h;
-      break;
-    }
-    case OST_ROW_FRICTION: {
-      // stick (W[normal] = 0): J_f u = 0.  slide (W[normal] = 1): the force is fixed on the
-      // cone, lambda_f = mu lambda_n d with d = W[i] opposing the slip (maximal dissipation),
-      // a decoupled row scaled by k = h J_i Mt^-1 J_i' (velocity per force)      (eq. 5-7)
-      if (w->W[r->normal] == 0) {
-        w->c[i] = 0;
-        w->rho[i] = w->Ju[i];
-        m_i = w->rho[i];
-      } else {
-        ostNum ln = w->lambda[r->normal] > 0 ? w->lambda[r->normal] : 0;
-        ostNum k = h * w->diag[i];
-        m_i = k * (lam - w->rows[r->normal].mu * ln * w->W[i]);
-        w->c[i] = k / 1e-12;
-        w->rho[i] = m_i / 1e-12;
+      if (i + 2 < nrow && w->rows[i + 1].type == OST_ROW_FRICTION && w->rows[i + 1].normal == i) {
+        merit += osti_frictionRows(w, i, opt->reg);
       }
       break;
     }
+    case OST_ROW_FRICTION:
+      m_i = 0;  // filled with its contact row
+      break;
     case OST_ROW_SERVO: {
       // force = pos + b2 J u (q+ enters pos through the actuator length), clamped to
       // forcerange; residual alpha (lambda - force) with alpha = 1/(kd + h kp)      (eq. 8)
@@ -225,7 +294,7 @@ OST_HD void osti_schurApply(ostWorld* w, ostNum* OST_RESTRICT y, const ostNum* x
 // P = diag(A)^-1; x starts at 0; returns the iterations used
 OST_HD int osti_pcr(ostWorld* w, ostNum* x, const ostNum* b, int maxit, ostNum rtol) {
   int n = w->nrow;
-  ostNum* r = w->pcr + 2 * (size_t)w->nrow_max;
+  ostNum* r = w->pcr + (size_t)w->nrow_max;
   ostNum* z = r + w->nrow_max;
   ostNum* p = z + w->nrow_max;
   ostNum* Az = p + w->nrow_max;
@@ -285,14 +354,15 @@ OST_HD int osti_pcr(ostWorld* w, ostNum* x, const ostNum* b, int maxit, ostNum r
 }
 
 
-// one Newton update after osti_evaluate: solve the Schur system by PCR, back-substitute du,
-// refresh the friction modes from the updated (unprojected) iterate, then project the
-// multipliers (cone clamp, lambda_n >= 0, force range); returns the PCR iterations
-OST_HD int osti_newtonUpdate(ostWorld* w, const ostSolverOptions* opt) {
+// the Newton direction at the evaluated iterate: solve the Schur system by PCR and
+// back-substitute du; dlambda is rotated back from slip frames to contact frames (J too). The
+// iterate becomes the base of the step: its u, rows and multipliers are kept for osti_trial and
+// for matching multipliers onto the rows of the next iterate. Returns the PCR iterations.
+OST_HD int osti_newtonDirection(ostWorld* w, const ostSolverOptions* opt) {
   int nv = w->nv, nrow = w->nrow;
   ostNum h = w->h;
   ostNum* b = w->pcr;
-  ostNum* dlam = w->pcr + w->nrow_max;
+  ostNum* dlam = w->dlambda;
 
   // right-hand side (J Mt^-1 r_dyn - rho) / h                                        (eq. 11)
   for (int i = 0; i < nrow; i++) {
@@ -305,59 +375,84 @@ OST_HD int osti_newtonUpdate(ostWorld* w, const ostSolverOptions* opt) {
   ostu_mulMatTVec(t, w->J, dlam, nrow, nv);
   ostu_cholSolve(t, w->M, t, nv);
   for (int j = 0; j < nv; j++) {
-    w->qvel[j] += h * t[j] - w->Minv_rdyn[j];
-  }
-  for (int i = 0; i < nrow; i++) {
-    w->lambda[i] += dlam[i];
+    w->dqvel[j] = h * t[j] - w->Minv_rdyn[j];
+    w->qvel_base[j] = w->qvel[j];
   }
 
-  // friction modes from the unprojected iterate: a sticking force outside the cone starts
-  // sliding along it; a sliding contact whose slip turns along its force sticks again
+  // sliding contacts: direction and Jacobian rows back from the slip frame to the contact frame
   for (int i = 0; i + 2 < nrow; i++) {
-    const ostRow* r = w->rows + i;
-    if (r->type != OST_ROW_CONTACT || w->rows[i + 1].type != OST_ROW_FRICTION) {
-      continue;
-    }
-    ostNum s1 = ostu_dot(w->J + (size_t)(i + 1) * nv, w->qvel, nv);
-    ostNum s2 = ostu_dot(w->J + (size_t)(i + 2) * nv, w->qvel, nv);
-    ostNum f1 = w->lambda[i + 1], f2 = w->lambda[i + 2];
-    ostNum slip = sqrt(s1 * s1 + s2 * s2), lf = sqrt(f1 * f1 + f2 * f2);
-    ostNum bound = r->mu * (w->lambda[i] > 0 ? w->lambda[i] : 0);
-    int slide = w->W[i] != 0;
-    if (!slide && lf > bound * (1 + 1e-6) && lf > 0) {
-      w->W[i] = 1;
-      w->W[i + 1] = f1 / lf;
-      w->W[i + 2] = f2 / lf;
-    } else if (slide && slip > 1e-7) {
-      if (s1 * w->W[i + 1] + s2 * w->W[i + 2] > 0) {
-        w->W[i] = 0;  // slip along the force: the contact sticks
-      } else {
-        w->W[i + 1] = -s1 / slip;
-        w->W[i + 2] = -s2 / slip;
-      }
+    if (w->rows[i].type == OST_ROW_CONTACT && w->W[i] != 0) {
+      ostNum e1 = w->W[i + 1], e2 = w->W[i + 2];
+      ostNum dpar = dlam[i + 1], dperp = dlam[i + 2];
+      dlam[i + 1] = e1 * dpar - e2 * dperp;
+      dlam[i + 2] = e2 * dpar + e1 * dperp;
+      osti_rotateRows(w->J + (size_t)(i + 1) * nv, w->J + (size_t)(i + 2) * nv, e1, -e2, nv);
     }
   }
-  osti_projectRows(w->lambda, w->rows, nrow);
+  for (int i = 0; i < nrow; i++) {
+    w->rows_prev[i] = w->rows[i];
+    w->lambda_prev[i] = w->lambda[i];
+  }
+  w->nrow_prev = nrow;
   return it;
 }
 
 
-// save the current iterate's rows and multipliers as "previous", for matching after the
-// geometry provider refills the rows at the next iterate
-OST_HD void osti_savePrevious(ostWorld* w) {
-  for (int i = 0; i < w->nrow; i++) {
-    w->rows_prev[i] = w->rows[i];
-    w->lambda_prev[i] = w->lambda[i];
-    w->W_prev[i] = w->W[i];
+// the trial point base + alpha * direction: u, and the multipliers on the base rows projected
+// onto their admissible sets (cone clamp, lambda_n >= 0, force range). lambda receives them too,
+// which is final when the rows are not refilled; else osti_matchPrevious carries them over.
+OST_HD void osti_trial(ostWorld* w, ostNum alpha) {
+  for (int j = 0; j < w->nv; j++) {
+    w->qvel[j] = w->qvel_base[j] + alpha * w->dqvel[j];
   }
-  w->nrow_prev = w->nrow;
+  for (int i = 0; i < w->nrow_prev; i++) {
+    w->lambda_trial[i] = w->lambda_prev[i] + alpha * w->dlambda[i];
+  }
+  osti_projectRows(w->lambda_trial, w->rows_prev, w->nrow_prev);
+  for (int i = 0; i < w->nrow_prev; i++) {
+    w->lambda[i] = w->lambda_trial[i];
+  }
 }
 
 
-// carry multipliers from the previous iterate onto the freshly filled rows
+// a full Newton update at fixed geometry: direction, then the whole step
+OST_HD int osti_newtonUpdate(ostWorld* w, const ostSolverOptions* opt) {
+  int it = osti_newtonDirection(w, opt);
+  osti_trial(w, 1);
+  return it;
+}
+
+
+// keep the returned iterate's rows and multipliers to warm-start the next step
+OST_HD void osti_saveWarm(ostWorld* w) {
+  for (int i = 0; i < w->nrow; i++) {
+    w->rows_warm[i] = w->rows[i];
+    w->lambda_warm[i] = w->lambda[i];
+  }
+  w->nrow_warm = w->nrow;
+}
+
+
+// start a step's Newton loop from u (nv): the first iterate's multipliers are matched from the
+// last step's result if warm, else they start at zero; call osti_trial(w, 0) next
+OST_HD void osti_startStep(ostWorld* w, const ostNum* u, int warm) {
+  for (int j = 0; j < w->nv; j++) {
+    w->qvel_base[j] = u[j];
+    w->dqvel[j] = 0;
+  }
+  w->nrow_prev = warm ? w->nrow_warm : 0;
+  for (int i = 0; i < w->nrow_prev; i++) {
+    w->rows_prev[i] = w->rows_warm[i];
+    w->lambda_prev[i] = w->lambda_warm[i];
+    w->dlambda[i] = 0;
+  }
+}
+
+
+// carry the trial multipliers from the base iterate's rows onto the freshly filled rows
 OST_HD void osti_matchPrevious(ostWorld* w) {
-  osti_matchRows(w->lambda, w->W, w->rows, w->nrow, w->lambda_prev, w->W_prev, w->rows_prev,
-                 w->nrow_prev, w->used);
+  osti_matchRows(w->lambda, w->rows, w->nrow, w->lambda_trial, w->rows_prev, w->nrow_prev,
+                 w->used);
 }
 
 #ifdef __cplusplus

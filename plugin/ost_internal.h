@@ -22,6 +22,8 @@ typedef struct ostContext_ {
   char           err[512];        // message of the last failure
   int*           servo;           // 1 if actuator i is an implicit servo row     (nu)
   mjtNum*        qpos_prev;       // q- of the current step                        (nq)
+  mjtNum*        state_end;       // (time, qpos, qvel) after the last step   (1 + nq + nv)
+  int            warm_valid;      // 1 if state_end and the world's warm rows are valid
   mjtNum*        jac;             // contact Jacobian scratch                      (6 x nv)
   void*          world_buf;       // the core world's single allocation
   ostWorld       world;           // core solver state, pointers into world_buf
@@ -40,6 +42,10 @@ int ost_fail(ostContext* c, int status, const char* fmt, ...);
 // fill the world's rows and Jacobians at the configuration in d->qpos using MuJoCo's own
 // kinematics and collision on the private model (the `mujoco` geometry provider)
 int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h);
+
+// matching key of a contact: its position in the frame of a moving body of the pair (geom2's
+// body unless that is the world), so that contacts keep their keys while the bodies move
+void ost_contactKey(const mjModel* m, const mjData* d, const mjContact* con, mjtNum key[3]);
 
 // classify actuator i: 1 implicit servo, 0 explicit force, -1 unsupported (message in err)
 int ost_actuatorKind(const mjModel* m, int i, char* err, int err_sz);

@@ -11,12 +11,15 @@
   X(newton_iter,   1, 16)                   \
   X(pcr_iter,      1, 32)                   \
   X(k_min,         1, 1)                    \
+  X(linesearch,    1, 4)                    \
+  X(warmstart,     1, 1)                    \
   X(tol,           0, 1e-10)                \
   X(pcr_tol,       0, 1e-12)                \
   X(timestep,      0, 0)                    \
   X(margin,        0, 0.01)                 \
   X(fb_eps,        0, 1e-9)                 \
-  X(eq_compliance, 0, 0)
+  X(eq_compliance, 0, 0)                   \
+  X(regularization, 0, 1e-6)
 
 void ost_defaultOptions(ostOptions* opt) {
 #define X(name, isint, def) opt->name = def;
@@ -31,12 +34,17 @@ static int validate(const ostOptions* o, char* err, int err_sz) {
   if (o->newton_iter < 1 || o->newton_iter > 1000) bad = "newton_iter must be in [1, 1000]";
   else if (o->pcr_iter < 1 || o->pcr_iter > 100000) bad = "pcr_iter must be in [1, 100000]";
   else if (o->k_min < 0 || o->k_min > o->newton_iter) bad = "k_min must be in [0, newton_iter]";
+  else if (o->linesearch < 0 || o->linesearch > 30) bad = "linesearch must be in [0, 30]";
+  else if (o->warmstart != 0 && o->warmstart != 1) bad = "warmstart must be 0 or 1";
   else if (!(o->tol >= 0)) bad = "tol must be >= 0";
   else if (!(o->pcr_tol >= 0)) bad = "pcr_tol must be >= 0";
   else if (!(o->timestep >= 0) || o->timestep > 10) bad = "timestep must be in [0, 10] s";
   else if (!(o->margin >= 0) || o->margin > 10) bad = "margin must be in [0, 10] m";
   else if (!(o->fb_eps > 0)) bad = "fb_eps must be > 0";
   else if (!(o->eq_compliance >= 0)) bad = "eq_compliance must be >= 0";
+  else if (!(o->regularization >= 0) || o->regularization > 1) {
+    bad = "regularization must be in [0, 1]";
+  }
   if (bad) {
     if (err) snprintf(err, err_sz, "ostrich option: %s", bad);
     return OST_ERR_MODEL;

@@ -50,6 +50,17 @@ static int contactJacobian(ostContext* c, const mjData* d, const mjContact* con,
 }
 
 
+void ost_contactKey(const mjModel* m, const mjData* d, const mjContact* con, mjtNum key[3]) {
+  int b = m->geom_bodyid[con->geom2];
+  if (b == 0) {
+    b = m->geom_bodyid[con->geom1];
+  }
+  mjtNum dx[3] = {con->pos[0] - d->xpos[3 * b], con->pos[1] - d->xpos[3 * b + 1],
+                  con->pos[2] - d->xpos[3 * b + 2]};
+  mju_mulMatTVec(key, d->xmat + 9 * b, dx, 3, 3);
+}
+
+
 int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
   const mjModel* m = c->mo;
   ostWorld* w = &c->world;
@@ -126,9 +137,7 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
       r->normal = k == 0 ? -1 : n;
       r->obj[0] = con->geom1;
       r->obj[1] = con->geom2;
-      r->key[0] = con->pos[0];
-      r->key[1] = con->pos[1];
-      r->key[2] = con->pos[2];
+      ost_contactKey(m, d, con, r->key);
       r->pos = con->dist - con->includemargin + c->opt.margin;  // user's margin - gap
       r->mu = con->friction[0];
     }

@@ -75,6 +75,7 @@ static int prepare(ostContext* c, const mjModel* m) {
 // restore the pre-step state and recompute derived quantities after a failure
 static int abortStep(ostContext* c, const mjModel* m, mjData* d, int status) {
   ostWorld* w = &c->world;
+  c->warm_valid = 0;
   memcpy(d->qpos, c->qpos_prev, m->nq * sizeof(mjtNum));
   memcpy(d->qvel, w->qvel_prev, m->nv * sizeof(mjtNum));
   d->ncon = d->nefc = d->ne = d->nf = 0;
@@ -92,32 +93,91 @@ static int evalGeometry(ostContext* c, mjData* d, const mjtNum* u, mjtNum h) {
 }
 
 
-// the non-smooth Newton loop with best-iterate backtracking (paper section III-C); leaves the
-// best iterate's geometry in d and its (u, lambda) in the world
+// the fingerprint (time, qpos, qvel) of d's state: after a step, or compared before one
+static int continuesLastStep(ostContext* c, const mjData* d) {
+  const mjModel* m = c->m;
+  return c->warm_valid && c->state_end[0] == d->time
+         && !memcmp(c->state_end + 1, d->qpos, m->nq * sizeof(mjtNum))
+         && !memcmp(c->state_end + 1 + m->nq, d->qvel, m->nv * sizeof(mjtNum));
+}
+
+
+static void saveStateEnd(ostContext* c, const mjData* d) {
+  const mjModel* m = c->m;
+  c->state_end[0] = d->time;
+  memcpy(c->state_end + 1, d->qpos, m->nq * sizeof(mjtNum));
+  memcpy(c->state_end + 1 + m->nq, d->qvel, m->nv * sizeof(mjtNum));
+  c->warm_valid = 1;
+}
+
+
+// the trial iterate base + alpha * direction: its geometry, carried multipliers and merit
+static int trialIterate(ostContext* c, mjData* d, const ostSolverOptions* so, mjtNum alpha,
+                        mjtNum* merit) {
+  ostWorld* w = &c->world;
+  int status;
+  osti_trial(w, alpha);
+  if ((status = evalGeometry(c, d, w->qvel, w->h))) {
+    return status;
+  }
+  osti_matchPrevious(w);
+  *merit = sqrt(osti_evaluate(w, so));
+  c->stats.geometry_evals++;
+  return OST_OK;
+}
+
+
+// the non-smooth Newton loop (paper section III-C) with a backtracking line search on the merit
+// and best-iterate backtracking; leaves the best iterate's geometry in d and its (u, lambda) in
+// the world. Line search: halve alpha until the merit falls (Armijo, sigma = 1e-4), at most
+// `linesearch` times; if no trial lowers it, the lowest trial below the base is taken, else the
+// full step (contact sets changed: the Newton model was wrong, move on).
 static int newton(ostContext* c, mjData* d, mjtNum h) {
   ostWorld* w = &c->world;
   const ostOptions* o = &c->opt;
-  ostSolverOptions so = {o->newton_iter, o->pcr_iter, o->k_min, 0, o->tol, o->pcr_tol, o->fb_eps};
+  ostSolverOptions so = {o->newton_iter, o->pcr_iter, o->k_min, 0,
+                         o->tol,         o->pcr_tol,  o->fb_eps, o->regularization};
   int nv = w->nv, status, best_k = -1, pcr = 0, k = 0;
-  ostNum best = HUGE_VAL, first = 0;
+  ostNum best = HUGE_VAL, first = 0, merit = 0;
 
-  // cold multipliers; u starts from u- + h qacc_warmstart (restored by mjd_stepFD: FD-safe)
-  w->nrow_prev = 0;
+  // u starts from u- + h qacc_warmstart (restored by mjd_stepFD); the multipliers start from
+  // the last step's if this step continues from its result (bitwise), else from zero, so that
+  // a step repeated from a restored or perturbed state (finite differences) is reproducible
   for (int j = 0; j < nv; j++) {
-    w->qvel[j] = w->qvel_prev[j] + h * d->qacc_warmstart[j];
+    w->tmp[j] = w->qvel_prev[j] + h * d->qacc_warmstart[j];
   }
+  osti_startStep(w, w->tmp, o->warmstart && continuesLastStep(c, d));
   for (k = 0; k <= o->newton_iter; k++) {
-    if ((status = evalGeometry(c, d, w->qvel, h))) {
+    if (k == 0) {
+      status = trialIterate(c, d, &so, 0, &merit);
+      first = merit;
+    } else {
+      ostNum base = merit, alpha = 1, lowest = HUGE_VAL, alpha_lowest = 1, alpha_last = 1;
+      pcr += osti_newtonDirection(w, &so);
+      for (int ls = 0; ls <= o->linesearch; ls++, alpha *= 0.5) {
+        if ((status = trialIterate(c, d, &so, alpha, &merit))) {
+          return status;
+        }
+        alpha_last = alpha;
+        if (merit < (1 - 1e-4 * alpha) * base) {
+          break;
+        }
+        if (merit < lowest) {
+          lowest = merit;
+          alpha_lowest = alpha;
+        }
+      }
+      ostNum alpha_take = lowest < base ? alpha_lowest : 1;
+      if (!(merit < (1 - 1e-4 * alpha_last) * base) && alpha_take != alpha_last) {
+        status = trialIterate(c, d, &so, alpha_take, &merit);
+      }
+    }
+    if (status) {
       return status;
     }
-    osti_matchPrevious(w);
-    ostNum merit = sqrt(osti_evaluate(w, &so));
     if (!isfinite(merit)) {
       c->stats.status |= OST_NAN;
       break;
-    }
-    if (k == 0) {
-      first = merit;
     }
     if (k < mjNSOLVER) {
       d->solver[k].gradient = merit;
@@ -132,8 +192,6 @@ static int newton(ostContext* c, mjData* d, mjtNum h) {
     if ((k >= o->k_min && merit <= o->tol) || k == o->newton_iter) {
       break;
     }
-    pcr += osti_newtonUpdate(w, &so);
-    osti_savePrevious(w);
   }
   int last_k = k;  // the loop always leaves through a break after evaluating iterate k
   if (best_k < 0) {
@@ -199,7 +257,8 @@ static void publishForces(ostContext* c, const mjModel* m, mjData* d) {
       continue;
     }
     int best = -1;
-    mjtNum best_d2 = HUGE_VAL;
+    mjtNum best_d2 = HUGE_VAL, key[3];
+    ost_contactKey(m, d, con, key);
     for (int r = 0; r < w->nrow; r++) {
       const ostRow* row = w->rows + r;
       if (used[r] || row->type != OST_ROW_CONTACT || row->obj[0] != con->geom1
@@ -208,7 +267,7 @@ static void publishForces(ostContext* c, const mjModel* m, mjData* d) {
       }
       mjtNum d2 = 0;
       for (int k = 0; k < 3; k++) {
-        d2 += (row->key[k] - con->pos[k]) * (row->key[k] - con->pos[k]);
+        d2 += (row->key[k] - key[k]) * (row->key[k] - key[k]);
       }
       if (d2 < best_d2) {
         best_d2 = d2;
@@ -311,6 +370,8 @@ int ost_step2(const mjModel* m, mjData* d) {
   }
   memcpy(d->qacc_warmstart, qacc, nv * sizeof(mjtNum));
   d->time += h;
+  osti_saveWarm(w);
+  saveStateEnd(c, d);
 
   // publish: MuJoCo's own contacts and rows at q+ (look-ahead model: contacts within the
   // look-ahead distance are listed, separated ones with zero force), forces = lambda

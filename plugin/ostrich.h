@@ -47,12 +47,15 @@ typedef struct ostOptions_ {
   int    newton_iter;             // Newton budget per step                          (16)
   int    pcr_iter;                // PCR budget per Newton iterate                   (32)
   int    k_min;                   // earliest Newton iterate that may be returned     (1)
+  int    linesearch;              // max step halvings per Newton iterate, 0 = none   (4)
+  int    warmstart;               // 1: start from the last step's forces if continuing (1)
   double tol;                     // merit residual (m/s) at which Newton stops early (1e-10)
   double pcr_tol;                 // relative PCR residual at which PCR stops early   (1e-12)
   double timestep;                // step size; 0 = use opt.timestep                  (0)
   double margin;                  // contact look-ahead distance (m) added to margins (0.01)
   double fb_eps;                  // Fischer-Burmeister smoothing (m, m/s)            (1e-9)
   double eq_compliance;           // equality-constraint compliance E (m/N)           (0)
+  double regularization;          // relative compliance of contacts and sticking     (1e-6)
 } ostOptions;
 
 // Set default options.
@@ -79,6 +82,7 @@ typedef struct ostStats_ {
   int    newton_iter;             // Newton iterates evaluated
   int    best_iter;               // index of the returned (best) iterate
   int    pcr_iter;                // PCR iterations summed over the step
+  int    geometry_evals;          // iterates whose geometry was evaluated (line search incl.)
   int    ncon;                    // contacts in the returned iterate (incl. look-ahead)
   int    nrow;                    // constraint rows in the returned iterate
   double residual;                // merit residual of the returned iterate (m/s)

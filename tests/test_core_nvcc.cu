@@ -14,6 +14,7 @@ __global__ void ost_coreCompile_kernel(ostWorld* worlds, const ostSolverOptions*
   osti_factorMass(worlds + w);
   merit[w] = osti_evaluate(worlds + w, opt);
   osti_newtonUpdate(worlds + w, opt);
-  osti_savePrevious(worlds + w);
+  osti_newtonDirection(worlds + w, opt);
+  osti_trial(worlds + w, 0.5);
   osti_matchPrevious(worlds + w);
 }
