@@ -54,6 +54,7 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 4 * sizeof(ostNu
   X(ostRow,        rows,          nrow_max, 1)   /* rows of the current iterate            */   \
   X(ostRow,        rows_prev,     nrow_max, 1)   /* rows of the previous iterate           */   \
   X(ostNum,        J,             nrow_max, nv)  /* row Jacobians at q(u)                  */   \
+  X(ostNum,        J_prev,        nrow_max, nv)  /* row Jacobians of the previous iterate  */   \
   X(ostNum,        lambda,        nrow_max, 1)   /* multipliers (forces, N or N m)         */   \
   X(ostNum,        lambda_prev,   nrow_max, 1)   /* multipliers of the previous iterate    */   \
   X(ostNum,        dlambda,       nrow_max, 1)   /* Newton direction (contact frame)       */   \
@@ -76,6 +77,7 @@ typedef struct ostWorld_ {        // one world: sizes and pointers into one allo
   int    nrow_prev;               // rows of the previous iterate
   int    nrow_warm;               // rows of the last step's result (0: none)
   ostNum h;                       // timestep (s)
+  ostNum lookahead;               // contacts are reported up to this gap (m)
 #define X(type, name, r, c) type* name;
   OST_WORLD_ARRAYS(X)
 #undef X
@@ -101,6 +103,7 @@ OST_HD void ostu_worldInit(ostWorld* w, void* buf, int nv, int nrow_max, ostNum 
   w->nrow_prev = 0;
   w->nrow_warm = 0;
   w->h = h;
+  w->lookahead = 0;
 #define X(type, name, r, c)                                         \
   w->name = (type*)p;                                               \
   p += (((size_t)(r) * (c) * sizeof(type) + 63) / 64) * 64;
@@ -393,6 +396,9 @@ OST_HD int osti_newtonDirection(ostWorld* w, const ostSolverOptions* opt) {
     w->rows_prev[i] = w->rows[i];
     w->lambda_prev[i] = w->lambda[i];
   }
+  for (size_t k = 0; k < (size_t)nrow * nv; k++) {
+    w->J_prev[k] = w->J[k];
+  }
   w->nrow_prev = nrow;
   return it;
 }
@@ -449,10 +455,46 @@ OST_HD void osti_startStep(ostWorld* w, const ostNum* u, int warm) {
 }
 
 
-// carry the trial multipliers from the base iterate's rows onto the freshly filled rows
+// carry the trial multipliers from the base iterate's rows onto the freshly filled rows. A
+// contact or limit of the base iterate that the geometry no longer reports (it moved beyond the
+// look-ahead distance) is kept within the step as a linearized row, its gap extrapolated by
+// h J (u - u_base): the next Newton model still sees the floor a lifted wheel left, instead of
+// falling back through it (contact sets would otherwise alternate between iterates). Its gap is
+// at least the look-ahead distance (it was not reported), so it never carries force in a
+// solution; it only bounds the next Newton step.
 OST_HD void osti_matchPrevious(ostWorld* w) {
+  int nv = w->nv;
   osti_matchRows(w->lambda, w->rows, w->nrow, w->lambda_trial, w->rows_prev, w->nrow_prev,
                  w->used);
+  for (int j = 0; j < w->nrow_prev; j++) {
+    const ostRow* p = w->rows_prev + j;
+    if (w->used[j] || (p->type != OST_ROW_CONTACT && p->type != OST_ROW_LIMIT)) {
+      continue;
+    }
+    int nfr = (j + 2 < w->nrow_prev && w->rows_prev[j + 1].type == OST_ROW_FRICTION
+               && w->rows_prev[j + 1].normal == j) ? 2 : 0;
+    int n = w->nrow;
+    if (n + 1 + nfr > w->nrow_max) {
+      break;  // no room: the row is dropped (capacity is for reported contacts)
+    }
+    for (int k = 0; k <= nfr; k++) {
+      w->rows[n + k] = w->rows_prev[j + k];
+      w->lambda[n + k] = w->lambda_trial[j + k];
+      for (int c = 0; c < nv; c++) {
+        w->J[(size_t)(n + k) * nv + c] = w->J_prev[(size_t)(j + k) * nv + c];
+      }
+      if (k > 0) {
+        w->rows[n + k].normal = n;
+      }
+    }
+    ostNum move = 0;
+    for (int c = 0; c < nv; c++) {
+      move += w->J_prev[(size_t)j * nv + c] * (w->qvel[c] - w->qvel_base[c]);
+    }
+    ostNum gap = w->rows[n].pos + w->h * move;
+    w->rows[n].pos = gap > w->lookahead ? gap : w->lookahead;
+    w->nrow = n + 1 + nfr;
+  }
 }
 
 #ifdef __cplusplus

@@ -13,6 +13,8 @@
   X(k_min,         1, 1)                    \
   X(linesearch,    1, 4)                    \
   X(warmstart,     1, 1)                    \
+  X(split_depth,   1, 3)                    \
+  X(split_tol,     0, 1e-4)                 \
   X(tol,           0, 1e-10)                \
   X(pcr_tol,       0, 1e-12)                \
   X(timestep,      0, 0)                    \
@@ -36,6 +38,8 @@ static int validate(const ostOptions* o, char* err, int err_sz) {
   else if (o->k_min < 0 || o->k_min > o->newton_iter) bad = "k_min must be in [0, newton_iter]";
   else if (o->linesearch < 0 || o->linesearch > 30) bad = "linesearch must be in [0, 30]";
   else if (o->warmstart != 0 && o->warmstart != 1) bad = "warmstart must be 0 or 1";
+  else if (o->split_depth < 0 || o->split_depth > 10) bad = "split_depth must be in [0, 10]";
+  else if (!(o->split_tol >= 0)) bad = "split_tol must be >= 0";
   else if (!(o->tol >= 0)) bad = "tol must be >= 0";
   else if (!(o->pcr_tol >= 0)) bad = "pcr_tol must be >= 0";
   else if (!(o->timestep >= 0) || o->timestep > 10) bad = "timestep must be in [0, 10] s";

@@ -72,12 +72,30 @@ static int prepare(ostContext* c, const mjModel* m) {
 }
 
 
+// the state at the start of ost_step2 (time, qpos, qvel, qacc_warmstart), kept so that a
+// failure anywhere in the step, substeps included, leaves d as it was
+static void saveStart(ostContext* c, const mjModel* m, const mjData* d) {
+  mjtNum* s = c->state_start;
+  s[0] = d->time;
+  memcpy(s + 1, d->qpos, m->nq * sizeof(mjtNum));
+  memcpy(s + 1 + m->nq, d->qvel, m->nv * sizeof(mjtNum));
+  memcpy(s + 1 + m->nq + m->nv, d->qacc_warmstart, m->nv * sizeof(mjtNum));
+}
+
+
+static void restoreStart(ostContext* c, const mjModel* m, mjData* d) {
+  const mjtNum* s = c->state_start;
+  d->time = s[0];
+  memcpy(d->qpos, s + 1, m->nq * sizeof(mjtNum));
+  memcpy(d->qvel, s + 1 + m->nq, m->nv * sizeof(mjtNum));
+  memcpy(d->qacc_warmstart, s + 1 + m->nq + m->nv, m->nv * sizeof(mjtNum));
+}
+
+
 // restore the pre-step state and recompute derived quantities after a failure
 static int abortStep(ostContext* c, const mjModel* m, mjData* d, int status) {
-  ostWorld* w = &c->world;
   c->warm_valid = 0;
-  memcpy(d->qpos, c->qpos_prev, m->nq * sizeof(mjtNum));
-  memcpy(d->qvel, w->qvel_prev, m->nv * sizeof(mjtNum));
+  restoreStart(c, m, d);
   d->ncon = d->nefc = d->ne = d->nf = 0;
   mj_fwdPosition(m, d);
   mj_fwdVelocity(m, d);
@@ -130,9 +148,9 @@ static int trialIterate(ostContext* c, mjData* d, const ostSolverOptions* so, mj
 // the non-smooth Newton loop (paper section III-C) with a backtracking line search on the merit
 // and best-iterate backtracking; leaves the best iterate's geometry in d and its (u, lambda) in
 // the world. Line search: halve alpha until the merit falls (Armijo, sigma = 1e-4), at most
-// `linesearch` times; if no trial lowers it, the lowest trial below the base is taken, else the
-// full step (contact sets changed: the Newton model was wrong, move on).
-static int newton(ostContext* c, mjData* d, mjtNum h) {
+// `linesearch` times; if no trial lowers it, the lowest trial is taken (contact sets changed
+// between trials: the Newton model was wrong there). *residual gets the best merit.
+static int newton(ostContext* c, mjData* d, mjtNum h, mjtNum* residual) {
   ostWorld* w = &c->world;
   const ostOptions* o = &c->opt;
   ostSolverOptions so = {o->newton_iter, o->pcr_iter, o->k_min, 0,
@@ -167,7 +185,7 @@ static int newton(ostContext* c, mjData* d, mjtNum h) {
           alpha_lowest = alpha;
         }
       }
-      ostNum alpha_take = lowest < base ? alpha_lowest : 1;
+      ostNum alpha_take = alpha_lowest;
       if (!(merit < (1 - 1e-4 * alpha_last) * base) && alpha_take != alpha_last) {
         status = trialIterate(c, d, &so, alpha_take, &merit);
       }
@@ -206,19 +224,19 @@ static int newton(ostContext* c, mjData* d, mjtNum h) {
     }
     memcpy(w->lambda, w->lambda_best, w->nrow * sizeof(ostNum));
   }
-  c->stats.newton_iter = last_k + 1;
-  c->stats.best_iter = best_k;
-  c->stats.pcr_iter = pcr;
-  c->stats.residual = best;
-  c->stats.residual_first = first;
-  c->stats.nrow = w->nrow;
-  c->stats.ncon = 0;
+  ostStats* st = &c->stats;
+  st->newton_iter += last_k + 1;
+  st->best_iter = best_k;
+  st->pcr_iter += pcr;
+  if (st->substeps == 0) {
+    st->residual_first = first;
+  }
+  st->nrow = w->nrow;
+  st->ncon = 0;
   for (int i = 0; i < w->nrow; i++) {
-    c->stats.ncon += w->rows[i].type == OST_ROW_CONTACT;
+    st->ncon += w->rows[i].type == OST_ROW_CONTACT;
   }
-  if (best > o->tol) {
-    c->stats.status |= OST_NOT_CONVERGED;
-  }
+  *residual = best;
   d->solver_iter = last_k + 1 < mjNSOLVER ? last_k + 1 : mjNSOLVER;
   return OST_OK;
 }
@@ -312,21 +330,18 @@ int ost_step1(const mjModel* m, mjData* d) {
 }
 
 
-int ost_step2(const mjModel* m, mjData* d) {
-  if (!m) return -1;
-  if (!d) return -2;
-  ostContext* c = ost_context(m, d);
-  if (!c) {
-    return OST_ERR_MEMORY;
-  }
-  int status, nv = m->nv;
-  if ((status = prepare(c, m)) || (status = checkInputs(c, m, d, 1))) {
-    return status;
-  }
-  mjtNum h = c->opt.timestep > 0 ? c->opt.timestep : m->opt.timestep;
+// one backward-Euler step of size h from d's state. Stages at q- are recomputed unless fresh
+// (ost_step1 just ran them). If Newton's best residual stays above opt.split_tol the step is
+// redone as two half steps, recursively up to opt.split_depth levels: hard moments (a wheel
+// meeting an edge at h = 0.1 s) get a finer step, easy ones keep h.
+static int advance(ostContext* c, const mjModel* m, mjData* d, mjtNum h, int depth, int fresh) {
   ostWorld* w = &c->world;
+  int status, nv = m->nv;
   w->h = h;
-  memset(&c->stats, 0, sizeof(c->stats));
+  if (!fresh) {
+    mj_fwdPosition(m, d);
+    mj_fwdVelocity(m, d);
+  }
 
   // explicit forces at (q-, u-): f = qfrc_smooth minus the servo forces that become rows
   mj_fwdActuation(m, d);
@@ -351,15 +366,21 @@ int ost_step2(const mjModel* m, mjData* d) {
   }
   if (osti_factorMass(w)) {
     c->stats.status |= OST_CHOL_FAIL;
-    return abortStep(c, m, d, ost_fail(c, OST_ERR_NUMERIC, "M + hD is not positive definite"));
+    return ost_fail(c, OST_ERR_NUMERIC, "M + hD is not positive definite");
   }
 
   // non-smooth Newton at q = q- (+) h u
-  if ((status = newton(c, d, h))) {
-    if (status == OST_ERR_OVERFLOW) {
-      c->stats.status |= OST_OVERFLOW;
+  mjtNum residual = HUGE_VAL;
+  if ((status = newton(c, d, h, &residual))) {
+    return status;
+  }
+  if (residual > c->opt.split_tol && depth < c->opt.split_depth) {
+    memcpy(d->qpos, c->qpos_prev, m->nq * sizeof(mjtNum));
+    memcpy(d->qvel, w->qvel_prev, nv * sizeof(mjtNum));
+    if ((status = advance(c, m, d, h / 2, depth + 1, 0))) {
+      return status;
     }
-    return abortStep(c, m, d, status);
+    return advance(c, m, d, h / 2, depth + 1, 0);
   }
 
   // commit (q+, u+): d->qpos already holds q- (+) h u+ from the best iterate's geometry
@@ -372,6 +393,40 @@ int ost_step2(const mjModel* m, mjData* d) {
   d->time += h;
   osti_saveWarm(w);
   saveStateEnd(c, d);
+  c->stats.substeps++;
+  if (residual > c->stats.residual) {
+    c->stats.residual = residual;
+  }
+  if (residual > c->opt.tol) {
+    c->stats.status |= OST_NOT_CONVERGED;
+  }
+  return OST_OK;
+}
+
+
+int ost_step2(const mjModel* m, mjData* d) {
+  if (!m) return -1;
+  if (!d) return -2;
+  ostContext* c = ost_context(m, d);
+  if (!c) {
+    return OST_ERR_MEMORY;
+  }
+  int status;
+  if ((status = prepare(c, m)) || (status = checkInputs(c, m, d, 1))) {
+    return status;
+  }
+  mjtNum h = c->opt.timestep > 0 ? c->opt.timestep : m->opt.timestep;
+  ostWorld* w = &c->world;
+  w->lookahead = c->opt.margin;
+  memset(&c->stats, 0, sizeof(c->stats));
+  saveStart(c, m, d);
+  if ((status = advance(c, m, d, h, 0, 1))) {
+    if (status == OST_ERR_OVERFLOW) {
+      c->stats.status |= OST_OVERFLOW;
+    }
+    return abortStep(c, m, d, status);
+  }
+  d->solver_iter = c->stats.newton_iter < mjNSOLVER ? c->stats.newton_iter : mjNSOLVER;
 
   // publish: MuJoCo's own contacts and rows at q+ (look-ahead model: contacts within the
   // look-ahead distance are listed, separated ones with zero force), forces = lambda

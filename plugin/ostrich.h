@@ -55,6 +55,8 @@ typedef struct ostOptions_ {
   double margin;                  // contact look-ahead distance (m) added to margins (0.01)
   double fb_eps;                  // Fischer-Burmeister smoothing (m, m/s)            (1e-9)
   double eq_compliance;           // equality-constraint compliance E (m/N)           (0)
+  int    split_depth;             // max halvings of a step whose Newton fails        (3)
+  double split_tol;               // best residual (m/s) above which a step is split  (1e-4)
   double regularization;          // relative compliance of contacts and sticking     (1e-6)
 } ostOptions;
 
@@ -82,6 +84,7 @@ typedef struct ostStats_ {
   int    newton_iter;             // Newton iterates evaluated
   int    best_iter;               // index of the returned (best) iterate
   int    pcr_iter;                // PCR iterations summed over the step
+  int    substeps;                // committed substeps (1 unless the step was split)
   int    geometry_evals;          // iterates whose geometry was evaluated (line search incl.)
   int    ncon;                    // contacts in the returned iterate (incl. look-ahead)
   int    nrow;                    // constraint rows in the returned iterate

@@ -174,8 +174,7 @@ expect_py "box_plane mujoco: engine mujoco, 100 steps, no NaN" \
 
 #---------------------------------- the wheeled robot ---------------------------------------------
 # Ostrich drives the robot on flat ground at h = 0.01 s (w r = 1.05 m/s for 2 s); stock MuJoCo
-# climbs the pallet at h = 2 ms (the reference); Ostrich must climb it at h = 0.05 s, the main job
-# (this last check fails while the solver does not converge there: README, issue 2).
+# climbs the pallet at h = 2 ms (the reference); Ostrich climbs it at h = 0.05 s, the main job.
 
 ROBOT=$MODELS/wheeled_robot.xml
 run sim "$ROBOT" --h 0.01 --duration 2 --ctrl 3,3,3 --out "$tmp/r.csv"
@@ -187,6 +186,12 @@ run sim "$PALLET" --engine mujoco --h 0.002 --duration 6 --ctrl 3,3,3 --out "$tm
 expect_rc 0 "robot_pallet, mujoco, h = 0.002, 6 s, ctrl 3,3,3"
 expect_py "robot_pallet (mujoco): the robot drives over the pallet (final chassis x > 2.0)" \
   'j["final_qpos"][0] > 2.0 and float(rows[-1][1]) > 2.0' "$tmp/pm.csv"
+
+run sim "$PALLET" --h 0.05 --duration 6 --ctrl 3,3,3 --out "$tmp/po.csv"
+expect_rc 0 "robot_pallet, ostrich, h = 0.05, 6 s, ctrl 3,3,3"
+expect_py "robot_pallet (ostrich): 120 steps, no NaN, on the pallet on the way, over it at the end" \
+  'j["steps"] == 120 and j["nan"] is False and j["max_penetration"] < 0.02
+   and max(float(r[3]) for r in rows[1:]) > 0.48 and j["final_qpos"][0] > 3.0' "$tmp/po.csv"
 
 
 #---------------------------------- summary -------------------------------------------------------

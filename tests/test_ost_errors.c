@@ -94,6 +94,12 @@ START_TEST(test_badOptions) {
   mjData* d = mj_makeData(m);
   o.pcr_iter = 0;
   ck_assert_int_eq(ost_setOptions(m, d, &o), OST_ERR_MODEL);
+  ost_defaultOptions(&o);
+  o.split_depth = -1;
+  ck_assert_int_eq(ost_setOptions(m, d, &o), OST_ERR_MODEL);
+  ost_defaultOptions(&o);
+  o.regularization = -1e-6;
+  ck_assert_int_eq(ost_setOptions(m, d, &o), OST_ERR_MODEL);
   ost_deleteData(d);
   mj_deleteModel(m);
 }

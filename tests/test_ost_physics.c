@@ -46,11 +46,37 @@ START_TEST(test_boxRests) {
 END_TEST
 
 
+// mu = 0.5 at 20 deg (tan < mu): the box sticks, displacement < 1e-4 m over 2 s, every h
+START_TEST(test_inclineSticking) {
+  ost_fixtureSetup();
+  const double hs[3] = {1e-3, 1e-2, 1e-1}, mu = 0.5, T = 2;
+  for (int ih = 0; ih < 3; ih++) {
+    double h = hs[ih];
+    int n = (int)lround(T / h);
+    mjModel* m = incline(20, mu);
+    mjData* d = mj_makeData(m);
+    ost_fixtureSetTimestep(m, d, h);
+    double x0[3] = {d->qpos[0], d->qpos[1], d->qpos[2]}, res = 0;
+    for (int k = 0; k < n; k++) {
+      ck_assert_int_eq(ost_step(m, d), OST_OK);
+      res = ost_stats(d)->residual > res ? ost_stats(d)->residual : res;
+    }
+    double dx = sqrt(pow(d->qpos[0] - x0[0], 2) + pow(d->qpos[1] - x0[1], 2)
+                     + pow(d->qpos[2] - x0[2], 2));
+    printf("incline 20 deg h=%g: displacement %.3g m over 2 s, max residual %.2g\n", h, dx, res);
+    ck_assert_double_lt(dx, 1e-4);
+    ost_deleteData(d);
+    mj_deleteModel(m);
+  }
+}
+END_TEST
+
+
 // sliding down a 35 deg incline with mu = 0.5: a = g (sin - mu cos), independent of h
 START_TEST(test_inclineSliding) {
   ost_fixtureSetup();
-  const double hs[1] = {1e-3}, mu = 0.5, g = 9.81, T = 2;
-  for (int ih = 0; ih < 1; ih++) {
+  const double hs[3] = {1e-3, 1e-2, 1e-1}, mu = 0.5, g = 9.81, T = 2;
+  for (int ih = 0; ih < 3; ih++) {
     double h = hs[ih];
     int n = (int)lround(T / h);
     mjModel* m = incline(35, mu);
@@ -203,6 +229,7 @@ int main(void) {
   TCase* tc = tcase_create("physics");
   tcase_set_timeout(tc, 600);
   tcase_add_test(tc, test_boxRests);
+  tcase_add_test(tc, test_inclineSticking);
   tcase_add_test(tc, test_inclineSliding);
   tcase_add_test(tc, test_pendulumClosedForm);
   tcase_add_test(tc, test_servoAnyGain);
