@@ -11,7 +11,7 @@
   X(newton_iter,   1, 16)                   \
   X(pcr_iter,      1, 32)                   \
   X(k_min,         1, 1)                    \
-  X(linesearch,    1, 4)                    \
+  X(linesearch,    1, 1)                    \
   X(warmstart,     1, 1)                    \
   X(split_depth,   1, 3)                    \
   X(split_tol,     0, 1e-4)                 \

@@ -47,7 +47,7 @@ typedef struct ostOptions_ {
   int    newton_iter;             // Newton budget per step                          (16)
   int    pcr_iter;                // PCR budget per Newton iterate                   (32)
   int    k_min;                   // earliest Newton iterate that may be returned     (1)
-  int    linesearch;              // max step halvings per Newton iterate, 0 = none   (4)
+  int    linesearch;              // max step halvings per Newton iterate, 0 = none   (1)
   int    warmstart;               // 1: start from the last step's forces if continuing (1)
   double tol;                     // merit residual (m/s) at which Newton stops early (1e-10)
   double pcr_tol;                 // relative PCR residual at which PCR stops early   (1e-12)
