@@ -122,6 +122,13 @@ OST_HD int osti_factorMass(ostWorld* w) {
 #define OST_FIXED_ROW 1e12
 
 
+// Jacobi diagonal entry of row i, J_i Mt^-1 J_i', kept positive for the divisions that use it
+OST_HD void osti_rowDiag(ostWorld* w, int i) {
+  ostNum d = ostu_cholNormSqr(w->tmp + w->nv, w->M, w->J + (size_t)i * w->nv, w->nv);
+  w->diag[i] = d > 1e-300 ? d : 1e-300;
+}
+
+
 // rotate rows a, b of J by the unit vector (e1, e2): a <- e1 a + e2 b, b <- -e2 a + e1 b
 OST_HD void osti_rotateRows(ostNum* a, ostNum* b, ostNum e1, ostNum e2, int n) {
   for (int j = 0; j < n; j++) {
@@ -162,11 +169,8 @@ OST_HD ostNum osti_frictionRows(ostWorld* w, int i, ostNum reg) {
   w->W[a] = e1;
   w->W[b] = e2;
   osti_rotateRows(w->J + (size_t)a * nv, w->J + (size_t)b * nv, e1, e2, nv);
-  ostNum* t = w->tmp + nv;
-  w->diag[a] = ostu_cholNormSqr(t, w->M, w->J + (size_t)a * nv, nv);
-  w->diag[b] = ostu_cholNormSqr(t, w->M, w->J + (size_t)b * nv, nv);
-  w->diag[a] = w->diag[a] > 1e-300 ? w->diag[a] : 1e-300;
-  w->diag[b] = w->diag[b] > 1e-300 ? w->diag[b] : 1e-300;
+  osti_rowDiag(w, a);
+  osti_rowDiag(w, b);
   ostNum s1 = w->Ju[a], s2 = w->Ju[b];
   w->Ju[a] = e1 * s1 + e2 * s2;
   w->Ju[b] = -e2 * s1 + e1 * s2;
@@ -195,7 +199,6 @@ OST_HD ostNum osti_evaluate(ostWorld* w, const ostSolverOptions* opt) {
   int nv = w->nv, nrow = w->nrow;
   ostNum h = w->h;
   ostNum* t = w->tmp;
-  ostNum* t2 = w->tmp + nv;
 
   // Mt^-1 r_dyn = (u - u-) - h Mt^-1 (f + J' lambda)                              (eq. 9)
   ostu_mulMatTVec(t, w->J, w->lambda, nrow, nv);
@@ -211,10 +214,8 @@ OST_HD ostNum osti_evaluate(ostWorld* w, const ostSolverOptions* opt) {
 
   // per-row J u and the Jacobi diagonal J_i Mt^-1 J_i'
   for (int i = 0; i < nrow; i++) {
-    const ostNum* Ji = w->J + (size_t)i * nv;
-    w->Ju[i] = ostu_dot(Ji, w->qvel, nv);
-    ostNum d = ostu_cholNormSqr(t2, w->M, Ji, nv);
-    w->diag[i] = d > 1e-300 ? d : 1e-300;
+    w->Ju[i] = ostu_dot(w->J + (size_t)i * nv, w->qvel, nv);
+    osti_rowDiag(w, i);
     w->W[i] = 0;
   }
 

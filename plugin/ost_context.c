@@ -50,12 +50,13 @@ static ostContext* newContext(const mjModel* m, const mjData* d) {
   c->servo = (int*)calloc(m->nu > 0 ? m->nu : 1, sizeof(int));
   c->qpos_prev = (mjtNum*)calloc(m->nq > 0 ? m->nq : 1, sizeof(mjtNum));
   c->jac = (mjtNum*)calloc(6 * (m->nv > 0 ? m->nv : 1), sizeof(mjtNum));
-  c->state_end = (mjtNum*)calloc(1 + m->nq + m->nv, sizeof(mjtNum));
+  c->state_end = (mjtNum*)calloc(1 + m->nq + 2 * m->nv, sizeof(mjtNum));
   c->state_start = (mjtNum*)calloc(1 + m->nq + 2 * m->nv, sizeof(mjtNum));
   int nrow_max = rowCapacity(m);
   size_t sz = ostu_worldSize(m->nv, nrow_max);
   c->world_buf = aligned_alloc(64, (sz + 63) / 64 * 64);
-  if (!c->servo || !c->qpos_prev || !c->state_end || !c->state_start || !c->jac || !c->world_buf) {
+  if (!c->servo || !c->qpos_prev || !c->state_end || !c->state_start || !c->jac
+      || !c->world_buf) {
     freeContext(c);
     return NULL;
   }

@@ -22,8 +22,8 @@ typedef struct ostContext_ {
   char           err[512];        // message of the last failure
   int*           servo;           // 1 if actuator i is an implicit servo row     (nu)
   mjtNum*        qpos_prev;       // q- of the current step                        (nq)
-  mjtNum*        state_start;     // (time, qpos, qvel, qacc_warmstart) at ost_step2 entry
-  mjtNum*        state_end;       // (time, qpos, qvel) after the last step   (1 + nq + nv)
+  mjtNum*        state_start;     // state at ost_step2 entry          (1 + nq + 2 nv)
+  mjtNum*        state_end;       // state after the last step         (1 + nq + 2 nv)
   int            warm_valid;      // 1 if state_end and the world's warm rows are valid
   mjtNum*        jac;             // contact Jacobian scratch                      (6 x nv)
   void*          world_buf;       // the core world's single allocation

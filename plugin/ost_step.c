@@ -72,10 +72,10 @@ static int prepare(ostContext* c, const mjModel* m) {
 }
 
 
-// the state at the start of ost_step2 (time, qpos, qvel, qacc_warmstart), kept so that a
-// failure anywhere in the step, substeps included, leaves d as it was
-static void saveStart(ostContext* c, const mjModel* m, const mjData* d) {
-  mjtNum* s = c->state_start;
+// a state snapshot (time, qpos, qvel, qacc_warmstart) into s (1 + nq + 2 nv): the start of
+// ost_step2, so that a failure anywhere in the step (substeps included) leaves d as it was,
+// and the end of the last step, which a step must continue from to be warm-started
+static void saveState(const mjModel* m, const mjData* d, mjtNum* s) {
   s[0] = d->time;
   memcpy(s + 1, d->qpos, m->nq * sizeof(mjtNum));
   memcpy(s + 1 + m->nq, d->qvel, m->nv * sizeof(mjtNum));
@@ -111,21 +111,12 @@ static int evalGeometry(ostContext* c, mjData* d, const mjtNum* u, mjtNum h) {
 }
 
 
-// the fingerprint (time, qpos, qvel) of d's state: after a step, or compared before one
+// 1 if d's (time, qpos, qvel) equal bitwise the end of the last step
 static int continuesLastStep(ostContext* c, const mjData* d) {
   const mjModel* m = c->m;
   return c->warm_valid && c->state_end[0] == d->time
          && !memcmp(c->state_end + 1, d->qpos, m->nq * sizeof(mjtNum))
          && !memcmp(c->state_end + 1 + m->nq, d->qvel, m->nv * sizeof(mjtNum));
-}
-
-
-static void saveStateEnd(ostContext* c, const mjData* d) {
-  const mjModel* m = c->m;
-  c->state_end[0] = d->time;
-  memcpy(c->state_end + 1, d->qpos, m->nq * sizeof(mjtNum));
-  memcpy(c->state_end + 1 + m->nq, d->qvel, m->nv * sizeof(mjtNum));
-  c->warm_valid = 1;
 }
 
 
@@ -185,9 +176,8 @@ static int newton(ostContext* c, mjData* d, mjtNum h, mjtNum* residual) {
           alpha_lowest = alpha;
         }
       }
-      ostNum alpha_take = alpha_lowest;
-      if (!(merit < (1 - 1e-4 * alpha_last) * base) && alpha_take != alpha_last) {
-        status = trialIterate(c, d, &so, alpha_take, &merit);
+      if (!(merit < (1 - 1e-4 * alpha_last) * base) && alpha_lowest != alpha_last) {
+        status = trialIterate(c, d, &so, alpha_lowest, &merit);
       }
     }
     if (status) {
@@ -392,7 +382,8 @@ static int advance(ostContext* c, const mjModel* m, mjData* d, mjtNum h, int dep
   memcpy(d->qacc_warmstart, qacc, nv * sizeof(mjtNum));
   d->time += h;
   osti_saveWarm(w);
-  saveStateEnd(c, d);
+  saveState(m, d, c->state_end);
+  c->warm_valid = 1;
   c->stats.substeps++;
   if (residual > c->stats.residual) {
     c->stats.residual = residual;
@@ -419,7 +410,7 @@ int ost_step2(const mjModel* m, mjData* d) {
   ostWorld* w = &c->world;
   w->lookahead = c->opt.margin;
   memset(&c->stats, 0, sizeof(c->stats));
-  saveStart(c, m, d);
+  saveState(m, d, c->state_start);
   if ((status = advance(c, m, d, h, 0, 1))) {
     if (status == OST_ERR_OVERFLOW) {
       c->stats.status |= OST_OVERFLOW;
