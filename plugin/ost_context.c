@@ -27,6 +27,8 @@ static void freeContext(ostContext* c) {
   free(c->state_start);
   free(c->jac);
   free(c->world_buf);
+  free(c->native_block);
+  free(c->kin_buf);
   free(c);
 }
 

@@ -8,6 +8,7 @@
 
 #include <mujoco/mujoco.h>
 
+#include "ost_model.h"
 #include "ost_solver.h"
 #include "ostrich.h"
 
@@ -27,6 +28,10 @@ typedef struct ostContext_ {
   int            warm_valid;      // 1 if state_end and the world's warm rows are valid
   mjtNum*        jac;             // contact Jacobian scratch                      (6 x nv)
   void*          world_buf;       // the core world's single allocation
+  ostModel       native;          // native provider: packed model (geometry option 1)
+  void*          native_block;    // its single allocation
+  void*          kin_buf;         // its kinematics' single allocation
+  ostKin         kin;             // native kinematics, pointers into kin_buf
   ostWorld       world;           // core solver state, pointers into world_buf
   struct ostContext_* next;       // registry list
 } ostContext;
@@ -44,9 +49,22 @@ int ost_fail(ostContext* c, int status, const char* fmt, ...);
 // kinematics and collision on the private model (the `mujoco` geometry provider)
 int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h);
 
+// the `native` provider's rows at the configuration in d->qpos (core/ost_rows_native.h)
+int ost_rowsNative(ostContext* c, mjData* d, mjtNum h);
+
+// the `native` provider's start of a step at d's (q-, u-): Mt and f into the world
+void ost_startNative(ostContext* c, const mjData* d, mjtNum h);
+
 // matching key of a contact: its position in the frame of a moving body of the pair (geom2's
 // body unless that is the world), so that contacts keep their keys while the bodies move
 void ost_contactKey(const mjModel* m, const mjData* d, const mjContact* con, mjtNum key[3]);
+
+// pack m into om (arrays in *block, 64-byte aligned, caller frees) with a contact capacity
+int ost_packModel(const mjModel* m, int ncon_max, ostModel* om, void** block, char* err,
+                  int err_sz);
+
+// geom id of the mesh named by <custom><text name="ostrich/terrain">, or -1
+int ost_terrainGeom(const mjModel* m);
 
 // classify actuator i: 1 implicit servo, 0 explicit force, -1 unsupported (message in err)
 int ost_actuatorKind(const mjModel* m, int i, char* err, int err_sz);

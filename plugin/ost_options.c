@@ -21,7 +21,8 @@
   X(margin,        0, 0.01)                 \
   X(fb_eps,        0, 1e-9)                 \
   X(eq_compliance, 0, 0)                   \
-  X(regularization, 0, 1e-6)
+  X(regularization, 0, 1e-6)               \
+  X(geometry,      1, 0)
 
 void ost_defaultOptions(ostOptions* opt) {
 #define X(name, isint, def) opt->name = def;
@@ -46,7 +47,9 @@ static int validate(const ostOptions* o, char* err, int err_sz) {
   else if (!(o->margin >= 0) || o->margin > 10) bad = "margin must be in [0, 10] m";
   else if (!(o->fb_eps > 0)) bad = "fb_eps must be > 0";
   else if (!(o->eq_compliance >= 0)) bad = "eq_compliance must be >= 0";
-  else if (!(o->regularization >= 0) || o->regularization > 1) {
+  else if (o->geometry != OST_GEOMETRY_MUJOCO && o->geometry != OST_GEOMETRY_NATIVE) {
+    bad = "geometry must be 0 (mujoco) or 1 (native)";
+  } else if (!(o->regularization >= 0) || o->regularization > 1) {
     bad = "regularization must be in [0, 1]";
   }
   if (bad) {

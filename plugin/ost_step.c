@@ -38,6 +38,30 @@ static int checkInputs(ostContext* c, const mjModel* m, const mjData* d, int con
 }
 
 
+// native provider: pack the private model (margins widened) and size the kinematics block;
+// packed every step like the private model, since users edit mjModel fields between steps
+static int prepareNative(ostContext* c) {
+  free(c->native_block);
+  c->native_block = NULL;
+  int status = ost_packModel(c->mo, c->mo->nconmax, &c->native, &c->native_block, c->err,
+                             sizeof(c->err));
+  if (status) {
+    return status;
+  }
+  size_t sz = ostu_kinSize(c->native.s);
+  if (!c->kin_buf || memcmp(&c->kin.s, &c->native.s, sizeof(ostSizes))) {
+    free(c->kin_buf);
+    c->kin_buf = aligned_alloc(64, OST_ALIGN64(sz));
+    if (!c->kin_buf) {
+      return ost_fail(c, OST_ERR_MEMORY, "cannot allocate native kinematics (%zu bytes)", sz);
+    }
+    memset(c->kin_buf, 0, sz);
+  }
+  ostu_kinInit(&c->kin, c->kin_buf, c->native.s);
+  return OST_OK;
+}
+
+
 // prepare the context for a step: options, model check, private model whose margins are
 // widened by the look-ahead distance (gaps unchanged, so look-ahead contacts get efc rows)
 static int prepare(ostContext* c, const mjModel* m) {
@@ -68,7 +92,7 @@ static int prepare(ostContext* c, const mjModel* m) {
   for (int i = 0; i < mo->njnt; i++) {
     mo->jnt_margin[i] += la;
   }
-  return OST_OK;
+  return c->opt.geometry == OST_GEOMETRY_NATIVE ? prepareNative(c) : OST_OK;
 }
 
 
@@ -107,7 +131,10 @@ static int abortStep(ostContext* c, const mjModel* m, mjData* d, int status) {
 static int evalGeometry(ostContext* c, mjData* d, const mjtNum* u, mjtNum h) {
   memcpy(d->qpos, c->qpos_prev, c->mo->nq * sizeof(mjtNum));
   mj_integratePos(c->mo, d->qpos, u, h);
-  return ost_rowsMujoco(c, d, h);
+  if (c->opt.geometry != OST_GEOMETRY_NATIVE) {
+    return ost_rowsMujoco(c, d, h);
+  }
+  return ost_rowsNative(c, d, h);
 }
 
 
@@ -320,14 +347,12 @@ int ost_step1(const mjModel* m, mjData* d) {
 }
 
 
-// one backward-Euler step of size h from d's state. Stages at q- are recomputed unless fresh
-// (ost_step1 just ran them). If Newton's best residual stays above opt.split_tol the step is
-// redone as two half steps, recursively up to opt.split_depth levels: hard moments (a wheel
-// meeting an edge at h = 0.1 s) get a finer step, easy ones keep h.
-static int advance(ostContext* c, const mjModel* m, mjData* d, mjtNum h, int depth, int fresh) {
+// the mujoco provider's start of a step: f = qfrc_smooth minus the servo forces that become
+// rows, and Mt = M(q-) + h D (implicit joint damping, as MuJoCo's Euler), unfactored. Stages at
+// q- are recomputed unless fresh (ost_step1 just ran them).
+static void mujocoStart(ostContext* c, const mjModel* m, mjData* d, mjtNum h, int fresh) {
   ostWorld* w = &c->world;
-  int status, nv = m->nv;
-  w->h = h;
+  int nv = m->nv;
   if (!fresh) {
     mj_fwdPosition(m, d);
     mj_fwdVelocity(m, d);
@@ -336,8 +361,6 @@ static int advance(ostContext* c, const mjModel* m, mjData* d, mjtNum h, int dep
   // explicit forces at (q-, u-): f = qfrc_smooth minus the servo forces that become rows
   mj_fwdActuation(m, d);
   mj_fwdAcceleration(m, d);
-  memcpy(c->qpos_prev, d->qpos, m->nq * sizeof(mjtNum));
-  memcpy(w->qvel_prev, d->qvel, nv * sizeof(mjtNum));
   memcpy(w->qfrc_explicit, d->qfrc_smooth, nv * sizeof(mjtNum));
   if (!(m->opt.disableflags & mjDSBL_ACTUATION)) {
     for (int i = 0; i < m->nu; i++) {
@@ -353,6 +376,25 @@ static int advance(ostContext* c, const mjModel* m, mjData* d, mjtNum h, int dep
   mj_fullM(m, w->M, d->qM);
   for (int j = 0; j < nv; j++) {
     w->M[j * nv + j] += h * m->dof_damping[j];
+  }
+}
+
+
+// one backward-Euler step of size h from d's state. Stages at q- are recomputed unless fresh
+// (ost_step1 just ran them). If Newton's best residual stays above opt.split_tol the step is
+// redone as two half steps, recursively up to opt.split_depth levels: hard moments (a wheel
+// meeting an edge at h = 0.1 s) get a finer step, easy ones keep h.
+static int advance(ostContext* c, const mjModel* m, mjData* d, mjtNum h, int depth, int fresh) {
+  ostWorld* w = &c->world;
+  int status, nv = m->nv;
+  w->h = h;
+  memcpy(c->qpos_prev, d->qpos, m->nq * sizeof(mjtNum));
+  memcpy(w->qvel_prev, d->qvel, nv * sizeof(mjtNum));
+  if (c->opt.geometry == OST_GEOMETRY_NATIVE) {
+    // Mt and f at (q-, u-) from core's own dynamics
+    ost_startNative(c, d, h);
+  } else {
+    mujocoStart(c, m, d, h, fresh);
   }
   if (osti_factorMass(w)) {
     c->stats.status |= OST_CHOL_FAIL;

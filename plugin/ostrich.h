@@ -58,7 +58,13 @@ typedef struct ostOptions_ {
   int    split_depth;             // max halvings of a step whose Newton fails        (3)
   double split_tol;               // best residual (m/s) above which a step is split  (1e-4)
   double regularization;          // relative compliance of contacts and sticking     (1e-6)
+  int    geometry;                // geometry provider: OST_GEOMETRY_MUJOCO or _NATIVE (0)
 } ostOptions;
+
+typedef enum ostGeometry_ {       // geometry providers (option `geometry`)
+  OST_GEOMETRY_MUJOCO = 0,        // MuJoCo's kinematics and collision at every iterate
+  OST_GEOMETRY_NATIVE = 1         // Ostrich's portable core/ geometry (CPU and GPU)
+} ostGeometry;
 
 // Set default options.
 void ost_defaultOptions(ostOptions* opt);
@@ -74,6 +80,34 @@ int ost_setOptions(const mjModel* m, mjData* d, const ostOptions* opt);
 
 // Return OST_OK if Ostrich models every feature of m, else OST_ERR_MODEL and name the feature.
 int ost_checkModel(const mjModel* m, char* err, int err_sz);
+
+
+// Return OST_OK if the native geometry provider can represent m, else OST_ERR_MODEL and name the
+// first geom pair, joint or feature it cannot do.
+int ost_checkNative(const mjModel* m, char* err, int err_sz);
+
+// Largest disagreements of the native provider with MuJoCo (ost_compareNative).
+typedef struct ostNativeReport_ {
+  int    nstate;                  // configurations compared (keyframes + random)
+  int    ncontact;                // MuJoCo contacts seen, all configurations
+  int    contact_count;           // worst per-configuration count of unmatched contacts
+  int    ok;                      // 1 if every quantity is within tolerance
+  double body_pos;                // body and geom positions (relative)
+  double body_rot;                // body and geom rotation matrices
+  double mass_matrix;             // joint-space inertia (relative)
+  double bias;                    // gravity + Coriolis forces (relative)
+  double passive;                 // spring and damping forces (relative)
+  double actuator;                // actuator lengths and moments (relative)
+  double jacobian;                // translational and rotational Jacobians at body coms
+  double contact_analytic[3];     // analytic pairs: distance, normal, position (abs, m)
+  double contact_mpr[3];          // MPR pairs (convex, height field): distance, normal, position
+} ostNativeReport;
+
+// Compare native geometry with MuJoCo at every keyframe and nstate random configurations
+// (seeded): tolerances 1e-10 relative (kinematics, dynamics), 1e-9 (analytic contacts) and
+// 1e-6 (MPR contacts); r->ok says whether all hold.
+int ost_compareNative(const mjModel* m, int nstate, unsigned seed, ostNativeReport* r,
+                      char* err, int err_sz);
 
 
 //---------------------------------- Stepping ------------------------------------------------------

@@ -1,0 +1,273 @@
+// ost_rows_native.h: the `native` geometry provider's rows (the portable twin of
+// plugin/ost_rows_mujoco.c; mirrors engine_core_constraint.c's mj_makeConstraint for joint
+// limits and contacts). At a Newton iterate q it runs core's kinematics, transmission and
+// collision, then packs the solver rows: joint limits, contacts (normal + two tangents in the
+// contact frame) and implicit servo rows. Also the explicit forces and the mass matrix of a
+// step's start, so that a whole step runs without MuJoCo (CPU batch and GPU).
+// Invariant: rows come in a deterministic order (limits by joint, contacts by candidate pair,
+// servos by actuator), so evaluating the same q twice yields identical rows.
+#ifndef OSTRICH_CORE_OST_ROWS_NATIVE_H_
+#define OSTRICH_CORE_OST_ROWS_NATIVE_H_
+
+#include <math.h>
+#include <string.h>
+
+#include "ost_collision.h"
+#include "ost_kinematics.h"
+#include "ost_model.h"
+#include "ost_solver.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define OST_ROWS_OK 0
+#define OST_ROWS_ROW_OVERFLOW 1       // more rows than w->nrow_max
+#define OST_ROWS_CONTACT_OVERFLOW 2   // more contacts than ncon_max
+
+
+// matching key of contact i: its position in the frame of geom2's body (geom1's if geom2 is
+// on the world), as ost_contactKey in the plugin
+OST_HD void osti_contactKey(const ostModel* m, const ostKin* k, int i, ostNum key[3]) {
+  int p = k->contact_pair[i];
+  int b = m->geom_bodyid[m->pair_geom2[p]];
+  if (b == 0) {
+    b = m->geom_bodyid[m->pair_geom1[p]];
+  }
+  const ostNum* pos = k->contact[i].pos;
+  const ostNum* R = k->xmat + 9 * b;
+  ostNum dx[3] = {pos[0] - k->xpos[3 * b], pos[1] - k->xpos[3 * b + 1],
+                  pos[2] - k->xpos[3 * b + 2]};
+  for (int r = 0; r < 3; r++) {
+    key[r] = R[r] * dx[0] + R[3 + r] * dx[1] + R[6 + r] * dx[2];  // R' dx
+  }
+}
+
+
+// rows n, t1, t2 of contact i: frame rows times (J(body2) - J(body1)) at the contact point;
+// returns 0 if the contact moves no degree of freedom
+OST_HD int osti_contactJacobian(const ostModel* m, ostKin* k, int i, ostNum* Jn, ostNum* Jt1,
+                                ostNum* Jt2) {
+  int nv = m->s.nv, p = k->contact_pair[i];
+  const ostContact* con = k->contact + i;
+  int b1 = m->geom_bodyid[m->pair_geom1[p]], b2 = m->geom_bodyid[m->pair_geom2[p]];
+  ostNum* j1 = k->jac;
+  ostNum* j2 = k->jac + 3 * nv;
+  for (int j = 0; j < 6 * nv; j++) {
+    k->jac[j] = 0;
+  }
+  if (b1 > 0) osti_jac(m, k, j1, NULL, con->pos, b1);
+  if (b2 > 0) osti_jac(m, k, j2, NULL, con->pos, b2);
+  int any = 0;
+  const ostNum* f = con->frame;
+  for (int j = 0; j < nv; j++) {
+    ostNum dx = j2[j] - j1[j], dy = j2[nv + j] - j1[nv + j], dz = j2[2 * nv + j] - j1[2 * nv + j];
+    Jn[j] = f[0] * dx + f[1] * dy + f[2] * dz;
+    if (Jt1) {
+      Jt1[j] = f[3] * dx + f[4] * dy + f[5] * dz;
+      Jt2[j] = f[6] * dx + f[7] * dy + f[8] * dz;
+    }
+    any |= Jn[j] != 0;
+  }
+  return any;
+}
+
+
+// a zeroed row of the given type
+OST_HD ostRow* osti_newRow(ostWorld* w, int n, int type) {
+  ostRow* r = w->rows + n;
+  memset(r, 0, sizeof(ostRow));
+  r->type = type;
+  r->normal = -1;
+  return r;
+}
+
+
+// ctrl of actuator i, clamped to ctrlrange as MuJoCo does
+OST_HD ostNum osti_ctrl(const ostModel* m, const ostNum* ctrl, int i) {
+  ostNum c = ctrl[i];
+  if (m->actuator_ctrllimited[i] && !(m->disableflags & OST_DSBL_CLAMPCTRL)) {
+    const ostNum* r = m->actuator_ctrlrange + 2 * i;
+    c = c < r[0] ? r[0] : (c > r[1] ? r[1] : c);
+  }
+  return c;
+}
+
+
+// the rows at configuration qpos (osti_kinematics, osti_comPos, osti_transmission ran at qpos):
+// joint limits within their margin, contacts from osti_collision, implicit servo rows.
+// lookahead: Ostrich's look-ahead distance, already added to the packed margins; a row's gap
+// is the user's (dist - margin + gap + lookahead). Returns OST_ROWS_* (0: ok).
+OST_HD int osti_nativeRows(const ostModel* m, ostKin* k, ostWorld* w, const ostNum* qpos,
+                           const ostNum* ctrl, ostNum lookahead, ostNum h) {
+  int nv = m->s.nv, n = 0;
+
+  // joint limits (hinge and slide): lower side dist = q - lo, upper side dist = hi - q, a row
+  // while dist < margin; J = +1 / -1 on the joint's dof (as MuJoCo's efc rows)
+  if (!(m->disableflags & OST_DSBL_LIMIT)) {
+    for (int j = 0; j < m->s.njnt; j++) {
+      if (!m->jnt_limited[j]) {
+        continue;
+      }
+      ostNum q = qpos[m->jnt_qposadr[j]];
+      for (int side = 0; side < 2; side++) {
+        ostNum dist = side == 0 ? q - m->jnt_range[2 * j] : m->jnt_range[2 * j + 1] - q;
+        if (!(dist < m->jnt_margin[j])) {
+          continue;
+        }
+        if (n + 1 > w->nrow_max) {
+          return OST_ROWS_ROW_OVERFLOW;
+        }
+        ostRow* r = osti_newRow(w, n, OST_ROW_LIMIT);
+        r->obj[0] = j;
+        r->obj[1] = side == 0;
+        r->pos = dist - m->jnt_margin[j] + lookahead;
+        ostNum* J = w->J + (size_t)n * nv;
+        for (int c = 0; c < nv; c++) {
+          J[c] = 0;
+        }
+        J[m->jnt_dofadr[j]] = side == 0 ? 1 : -1;
+        n++;
+      }
+    }
+  }
+
+  // contacts: normal then two tangents in the contact frame (frame[0:3] from geom1 to geom2,
+  // so J_n u > 0 separates)
+  osti_collision(m, k);
+  if (k->overflow) {
+    return OST_ROWS_CONTACT_OVERFLOW;
+  }
+  for (int i = 0; i < k->ncon; i++) {
+    int p = k->contact_pair[i];
+    ostNum mu = m->pair_friction[p];
+    int fric = m->pair_condim[p] >= 3 && mu > 0;
+    if (n + (fric ? 3 : 1) > w->nrow_max) {
+      return OST_ROWS_ROW_OVERFLOW;
+    }
+    ostNum* Jn = w->J + (size_t)n * nv;
+    if (!osti_contactJacobian(m, k, i, Jn, fric ? Jn + nv : NULL, fric ? Jn + 2 * nv : NULL)) {
+      continue;
+    }
+    ostNum key[3];
+    osti_contactKey(m, k, i, key);
+    for (int c = 0; c < (fric ? 3 : 1); c++) {
+      ostRow* r = osti_newRow(w, n + c, c == 0 ? OST_ROW_CONTACT : OST_ROW_FRICTION);
+      r->normal = c == 0 ? -1 : n;
+      r->obj[0] = m->pair_geom1[p];
+      r->obj[1] = m->pair_geom2[p];
+      r->key[0] = key[0];
+      r->key[1] = key[1];
+      r->key[2] = key[2];
+      r->pos = k->contact[i].dist - (m->pair_margin[p] - m->pair_gap[p]) + lookahead;
+      r->mu = mu;
+    }
+    n += fric ? 3 : 1;
+  }
+
+  // implicit servo rows: force = g ctrl + b0 + b1 L(q) + b2 V, V = moment u          (eq. 8)
+  if (!(m->disableflags & OST_DSBL_ACTUATION)) {
+    for (int i = 0; i < m->s.nu; i++) {
+      if (!m->actuator_servo[i]) {
+        continue;
+      }
+      if (n + 1 > w->nrow_max) {
+        return OST_ROWS_ROW_OVERFLOW;
+      }
+      const ostNum* b = m->actuator_biasprm + 3 * i;
+      ostRow* r = osti_newRow(w, n, OST_ROW_SERVO);
+      r->obj[0] = i;
+      r->pos = m->actuator_gainprm[i] * osti_ctrl(m, ctrl, i) + b[0] + b[1] * k->actuator_length[i];
+      r->mu = b[2];
+      r->alpha = 1 / (-b[2] - h * b[1]);  // 1 / (kd + h kp)
+      r->lo = m->actuator_forcelimited[i] ? m->actuator_forcerange[2 * i] : -HUGE_VAL;
+      r->hi = m->actuator_forcelimited[i] ? m->actuator_forcerange[2 * i + 1] : HUGE_VAL;
+      for (int c = 0; c < nv; c++) {
+        w->J[(size_t)n * nv + c] = k->actuator_moment[(size_t)i * nv + c];
+      }
+      n++;
+    }
+  }
+  w->nrow = n;
+  return OST_ROWS_OK;
+}
+
+
+// geometry of a Newton iterate: kinematics, com frames, transmission and rows at qpos
+OST_HD int osti_nativeIterate(const ostModel* m, ostKin* k, ostWorld* w, const ostNum* qpos,
+                              const ostNum* ctrl, ostNum lookahead, ostNum h) {
+  osti_kinematics(m, k, qpos);
+  osti_comPos(m, k);
+  osti_transmission(m, k, qpos);
+  return osti_nativeRows(m, k, w, qpos, ctrl, lookahead, h);
+}
+
+
+// the start of a step at (q-, u-): Mt = M(q-) + h D into w->M (unfactored) and the explicit
+// forces f = qfrc_passive - qfrc_bias + explicit actuator forces + qfrc_applied (+ J' xfrc)
+// into w->qfrc_explicit (DESIGN.md section 1). qfrc_applied and xfrc_applied may be NULL.
+OST_HD void osti_nativeStart(const ostModel* m, ostKin* k, ostWorld* w, const ostNum* qpos,
+                             const ostNum* qvel, const ostNum* ctrl, const ostNum* qfrc_applied,
+                             const ostNum* xfrc_applied, ostNum h) {
+  int nv = m->s.nv;
+  osti_kinematics(m, k, qpos);
+  osti_comPos(m, k);
+  osti_crb(m, k);
+  osti_rne(m, k, qvel);
+  osti_passive(m, k, qpos, qvel);
+  osti_transmission(m, k, qpos);
+  for (int i = 0; i < nv * nv; i++) {
+    w->M[i] = k->qM[i];
+  }
+  for (int j = 0; j < nv; j++) {
+    w->M[j * nv + j] += h * m->dof_damping[j];
+    w->qfrc_explicit[j] = k->qfrc_passive[j] - k->qfrc_bias[j]
+                          + (qfrc_applied ? qfrc_applied[j] : 0);
+  }
+
+  // explicit actuators: force = g ctrl + b0 + b1 L + b2 V clamped to forcerange, times moment
+  if (!(m->disableflags & OST_DSBL_ACTUATION)) {
+    for (int i = 0; i < m->s.nu; i++) {
+      if (m->actuator_servo[i]) {
+        continue;
+      }
+      const ostNum* mom = k->actuator_moment + (size_t)i * nv;
+      const ostNum* b = m->actuator_biasprm + 3 * i;
+      ostNum V = 0;
+      for (int j = 0; j < nv; j++) {
+        V += mom[j] * qvel[j];
+      }
+      ostNum f = m->actuator_gainprm[i] * osti_ctrl(m, ctrl, i) + b[0]
+                 + b[1] * k->actuator_length[i] + b[2] * V;
+      if (m->actuator_forcelimited[i]) {
+        const ostNum* r = m->actuator_forcerange + 2 * i;
+        f = f < r[0] ? r[0] : (f > r[1] ? r[1] : f);
+      }
+      for (int j = 0; j < nv; j++) {
+        w->qfrc_explicit[j] += mom[j] * f;
+      }
+    }
+  }
+
+  // body wrenches (force, torque) applied at the center of mass: f += Jp' F + Jr' T
+  if (xfrc_applied) {
+    for (int b = 1; b < m->s.nbody; b++) {
+      const ostNum* x = xfrc_applied + 6 * b;
+      if (!(x[0] || x[1] || x[2] || x[3] || x[4] || x[5])) {
+        continue;
+      }
+      osti_jac(m, k, k->jac, k->jac + 3 * nv, k->xipos + 3 * b, b);
+      for (int j = 0; j < nv; j++) {
+        for (int r = 0; r < 3; r++) {
+          w->qfrc_explicit[j] += k->jac[r * nv + j] * x[r] + k->jac[(3 + r) * nv + j] * x[3 + r];
+        }
+      }
+    }
+  }
+}
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif  // OSTRICH_CORE_OST_ROWS_NATIVE_H_

@@ -1,0 +1,311 @@
+// ost_pack.c: mjModel -> ostModel, the flat read-only model of the native geometry provider
+// (core/ost_model.h), and the list of what `native` cannot do. Mirrors engine_io.c's model
+// allocation and the broadphase filter of engine_collision_driver.c: candidate geom pairs are
+// decided once here (contype/conaffinity, <exclude>, <pair>, welded bodies, parent-child), so a
+// step only tests pairs that can collide.
+// Invariant: a packed model carries every feature that native stepping needs, or packing fails
+// with a message naming the first feature it cannot represent; nothing is silently dropped.
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ost_internal.h"
+
+#define REFUSE(...)                                  \
+  do {                                               \
+    if (err) snprintf(err, err_sz, __VA_ARGS__);     \
+    return OST_ERR_MODEL;                            \
+  } while (0)
+
+
+// name of object i of a type, or "#i" when unnamed
+static const char* name(const mjModel* m, int type, int i, char* buf, int sz) {
+  const char* n = mj_id2name(m, type, i);
+  if (n && n[0]) {
+    return n;
+  }
+  snprintf(buf, sz, "#%d", i);
+  return buf;
+}
+
+
+// 1 if MuJoCo 2.2.2 has a collision function for the (ordered) type pair
+static int typesCollide(int t1, int t2) {
+  return !(t1 <= mjGEOM_HFIELD && t2 <= mjGEOM_HFIELD);
+}
+
+
+// geom id of the terrain mesh named in <custom><text name="ostrich/terrain">, or -1
+int ost_terrainGeom(const mjModel* m) {
+  int id = mj_name2id(m, mjOBJ_TEXT, "ostrich/terrain");
+  if (id < 0) {
+    return -1;
+  }
+  const char* gname = m->text_data + m->text_adr[id];
+  return mj_name2id(m, mjOBJ_GEOM, gname);
+}
+
+
+// 1 if geoms g1, g2 (not an explicit pair) pass MuJoCo's broadphase filters
+static int dynamicPair(const mjModel* m, int g1, int g2) {
+  int b1 = m->geom_bodyid[g1], b2 = m->geom_bodyid[g2];
+  int w1 = m->body_weldid[b1], w2 = m->body_weldid[b2];
+  if (w1 == w2) {
+    return 0;  // same rigid body (world-welded geoms included)
+  }
+  if (!((m->geom_contype[g1] & m->geom_conaffinity[g2])
+        || (m->geom_contype[g2] & m->geom_conaffinity[g1]))) {
+    return 0;
+  }
+  // parent-child filter on welded bodies; children of the world still touch it
+  if (!(m->opt.disableflags & mjDSBL_FILTERPARENT)) {
+    int p1 = m->body_weldid[m->body_parentid[w1]], p2 = m->body_weldid[m->body_parentid[w2]];
+    if ((w1 != 0 && p2 == w1) || (w2 != 0 && p1 == w2)) {
+      return 0;
+    }
+  }
+  int lo = b1 < b2 ? b1 : b2, hi = b1 < b2 ? b2 : b1;
+  int sig = ((lo + 1) << 16) + hi + 1;
+  for (int i = 0; i < m->nexclude; i++) {
+    if (m->exclude_signature[i] == sig) {
+      return 0;
+    }
+  }
+  for (int i = 0; i < m->npair; i++) {
+    if ((m->pair_geom1[i] == g1 && m->pair_geom2[i] == g2)
+        || (m->pair_geom1[i] == g2 && m->pair_geom2[i] == g1)) {
+      return 0;  // the explicit pair replaces it
+    }
+  }
+  return 1;
+}
+
+
+int ost_checkNative(const mjModel* m, char* err, int err_sz) {
+  char nb[32];
+  int terrain = ost_terrainGeom(m);
+  if (m->neq > 0) {
+    REFUSE("equality constraint '%s': the native geometry provider has no equality rows yet "
+           "(use ostrich/geometry 0, the mujoco provider)", name(m, mjOBJ_EQUALITY, 0, nb, 32));
+  }
+  if (m->ntendon > 0) {
+    REFUSE("tendon '%s': the native geometry provider has no tendons",
+           name(m, mjOBJ_TENDON, 0, nb, 32));
+  }
+  for (int j = 0; j < m->njnt; j++) {
+    int t = m->jnt_type[j];
+    if (m->jnt_limited[j] && (t == mjJNT_BALL || t == mjJNT_FREE)) {
+      REFUSE("joint '%s': limits on ball joints are not supported by the native provider",
+             name(m, mjOBJ_JOINT, j, nb, 32));
+    }
+  }
+  for (int i = 0; i < m->nu; i++) {
+    int t = m->actuator_trntype[i], j = m->actuator_trnid[2 * i];
+    if (t != mjTRN_JOINT || (m->jnt_type[j] != mjJNT_HINGE && m->jnt_type[j] != mjJNT_SLIDE)) {
+      REFUSE("actuator '%s': the native provider supports joint transmissions on hinge and "
+             "slide joints only", name(m, mjOBJ_ACTUATOR, i, nb, 32));
+    }
+  }
+  for (int g = 0; g < m->ngeom; g++) {
+    int t = m->geom_type[g];
+    if (t == mjGEOM_MESH && g == terrain && m->body_weldid[m->geom_bodyid[g]] != 0) {
+      REFUSE("geom '%s': a terrain mesh must be static (attached to the world)",
+             name(m, mjOBJ_GEOM, g, nb, 32));
+    }
+    if (t == mjGEOM_HFIELD && m->body_weldid[m->geom_bodyid[g]] != 0) {
+      REFUSE("geom '%s': a height field must be static (attached to the world)",
+             name(m, mjOBJ_GEOM, g, nb, 32));
+    }
+  }
+  return OST_OK;
+}
+
+
+// append candidate pair (g1, g2) with its contact parameters; geoms ordered by type as MuJoCo
+static void addPair(ostModel* om, int* n, const mjModel* m, int g1, int g2, int condim,
+                    mjtNum margin, mjtNum gap, mjtNum friction) {
+  // a terrain mesh goes first, like a height field, so normals point from the terrain out
+  int terrain = ost_terrainGeom(m);
+  if (g2 == terrain || (g1 != terrain && m->geom_type[g1] > m->geom_type[g2])) {
+    int t = g1;
+    g1 = g2;
+    g2 = t;
+  }
+  if (om) {
+    om->pair_geom1[*n] = g1;
+    om->pair_geom2[*n] = g2;
+    om->pair_condim[*n] = condim;
+    om->pair_margin[*n] = margin;
+    om->pair_gap[*n] = gap;
+    om->pair_friction[*n] = friction;
+  }
+  (*n)++;
+}
+
+
+// candidate pairs into om (NULL: count only); explicit pairs first, as MuJoCo
+static int candidatePairs(const mjModel* m, ostModel* om) {
+  int n = 0;
+  if (m->opt.disableflags & mjDSBL_CONTACT) {
+    return 0;
+  }
+  for (int i = 0; i < m->npair; i++) {
+    int g1 = m->pair_geom1[i], g2 = m->pair_geom2[i];
+    if (typesCollide(m->geom_type[g1] < m->geom_type[g2] ? m->geom_type[g1] : m->geom_type[g2],
+                     m->geom_type[g1] < m->geom_type[g2] ? m->geom_type[g2] : m->geom_type[g1])) {
+      addPair(om, &n, m, g1, g2, m->pair_dim[i], m->pair_margin[i], m->pair_gap[i],
+              m->pair_friction[5 * i]);
+    }
+  }
+  for (int g1 = 0; g1 < m->ngeom; g1++) {
+    for (int g2 = g1 + 1; g2 < m->ngeom; g2++) {
+      int t1 = m->geom_type[g1], t2 = m->geom_type[g2];
+      if (!typesCollide(t1 < t2 ? t1 : t2, t1 < t2 ? t2 : t1) || !dynamicPair(m, g1, g2)) {
+        continue;
+      }
+      int condim = m->geom_condim[g1] > m->geom_condim[g2] ? m->geom_condim[g1]
+                                                            : m->geom_condim[g2];
+      mjtNum margin = mju_max(m->geom_margin[g1], m->geom_margin[g2]);
+      mjtNum gap = mju_max(m->geom_gap[g1], m->geom_gap[g2]);
+      mjtNum mu = mju_max(m->geom_friction[3 * g1], m->geom_friction[3 * g2]);
+      addPair(om, &n, m, g1, g2, condim, margin, gap, mu);
+    }
+  }
+  return n;
+}
+
+
+// the terrain grid of mesh geom g: its sizes (cells, cell->face entries) or, with om, its data
+static void terrainGrid(const mjModel* m, int g, ostModel* om, int* ncell, int* ncellface) {
+  *ncell = 0;
+  *ncellface = 0;  // TERRAIN-GRID: filled in when core/ost_collision_terrain.h lands
+}
+
+
+int ost_packModel(const mjModel* m, int ncon_max, ostModel* om, void** block, char* err,
+                  int err_sz) {
+  int status = ost_checkNative(m, err, err_sz);
+  if (status) {
+    return status;
+  }
+  int terrain = ost_terrainGeom(m);
+
+  // sizes
+  ostSizes s;
+  memset(&s, 0, sizeof(s));
+  s.nq = m->nq;
+  s.nv = m->nv;
+  s.nbody = m->nbody;
+  s.njnt = m->njnt;
+  s.ngeom = m->ngeom;
+  s.nu = m->nu;
+  s.npair = candidatePairs(m, NULL);
+  s.nmesh = m->nmesh;
+  s.nmeshvert = m->nmeshvert;
+  s.nhfield = m->nhfield;
+  s.nhfielddata = m->nhfielddata;
+  s.ncon_max = ncon_max;
+  if (terrain >= 0) {
+    s.nmeshface = m->mesh_facenum[m->geom_dataid[terrain]];
+    terrainGrid(m, terrain, NULL, &s.ncell, &s.ncellface);
+  }
+
+  // one block for every array
+  size_t sz = ostu_modelSize(s);
+  void* buf = aligned_alloc(64, OST_ALIGN64(sz > 0 ? sz : 64));
+  if (!buf) {
+    if (err) snprintf(err, err_sz, "cannot allocate the packed model (%zu bytes)", sz);
+    return OST_ERR_MEMORY;
+  }
+  memset(buf, 0, sz);
+  memset(om, 0, sizeof(ostModel));
+  om->s = s;
+  ostu_modelInit(om, buf);
+  *block = buf;
+  for (int k = 0; k < 3; k++) {
+    om->gravity[k] = m->opt.gravity[k];
+  }
+  om->mpr_tolerance = m->opt.mpr_tolerance;
+  om->mpr_iterations = m->opt.mpr_iterations;
+  om->disableflags = m->opt.disableflags;
+
+  // bodies, joints, dofs
+#define COPY(dst, src, n)                          \
+  for (int i_ = 0; i_ < (n); i_++) (dst)[i_] = (src)[i_];
+  COPY(om->body_parentid, m->body_parentid, s.nbody);
+  COPY(om->body_rootid, m->body_rootid, s.nbody);
+  COPY(om->body_jntnum, m->body_jntnum, s.nbody);
+  COPY(om->body_jntadr, m->body_jntadr, s.nbody);
+  COPY(om->body_dofnum, m->body_dofnum, s.nbody);
+  COPY(om->body_dofadr, m->body_dofadr, s.nbody);
+  COPY(om->body_pos, m->body_pos, 3 * s.nbody);
+  COPY(om->body_quat, m->body_quat, 4 * s.nbody);
+  COPY(om->body_ipos, m->body_ipos, 3 * s.nbody);
+  COPY(om->body_iquat, m->body_iquat, 4 * s.nbody);
+  COPY(om->body_mass, m->body_mass, s.nbody);
+  COPY(om->body_inertia, m->body_inertia, 3 * s.nbody);
+  COPY(om->jnt_type, m->jnt_type, s.njnt);
+  COPY(om->jnt_qposadr, m->jnt_qposadr, s.njnt);
+  COPY(om->jnt_dofadr, m->jnt_dofadr, s.njnt);
+  COPY(om->jnt_bodyid, m->jnt_bodyid, s.njnt);
+  COPY(om->jnt_limited, m->jnt_limited, s.njnt);
+  COPY(om->jnt_pos, m->jnt_pos, 3 * s.njnt);
+  COPY(om->jnt_axis, m->jnt_axis, 3 * s.njnt);
+  COPY(om->jnt_stiffness, m->jnt_stiffness, s.njnt);
+  COPY(om->jnt_range, m->jnt_range, 2 * s.njnt);
+  COPY(om->jnt_margin, m->jnt_margin, s.njnt);
+  COPY(om->dof_bodyid, m->dof_bodyid, s.nv);
+  COPY(om->dof_jntid, m->dof_jntid, s.nv);
+  COPY(om->dof_parentid, m->dof_parentid, s.nv);
+  COPY(om->dof_armature, m->dof_armature, s.nv);
+  COPY(om->dof_damping, m->dof_damping, s.nv);
+  COPY(om->qpos_spring, m->qpos_spring, s.nq);
+
+  // geoms
+  COPY(om->geom_type, m->geom_type, s.ngeom);
+  COPY(om->geom_bodyid, m->geom_bodyid, s.ngeom);
+  COPY(om->geom_dataid, m->geom_dataid, s.ngeom);
+  COPY(om->geom_pos, m->geom_pos, 3 * s.ngeom);
+  COPY(om->geom_quat, m->geom_quat, 4 * s.ngeom);
+  COPY(om->geom_size, m->geom_size, 3 * s.ngeom);
+  COPY(om->geom_rbound, m->geom_rbound, s.ngeom);
+  if (terrain >= 0) {
+    om->geom_terrain[terrain] = 1;
+  }
+  candidatePairs(m, om);
+
+  // meshes: all vertices (the support of a convex mesh over them equals its hull's); the
+  // terrain mesh also keeps its faces and grid
+  COPY(om->mesh_vertadr, m->mesh_vertadr, s.nmesh);
+  COPY(om->mesh_vertnum, m->mesh_vertnum, s.nmesh);
+  COPY(om->mesh_vert, m->mesh_vert, 3 * s.nmeshvert);
+  if (terrain >= 0) {
+    int id = m->geom_dataid[terrain], ncell = 0, ncellface = 0;
+    om->mesh_faceadr[id] = 0;
+    om->mesh_facenum[id] = s.nmeshface;
+    COPY(om->mesh_face, m->mesh_face + 3 * m->mesh_faceadr[id], 3 * s.nmeshface);
+    terrainGrid(m, terrain, om, &ncell, &ncellface);
+  }
+
+  // height fields
+  COPY(om->hfield_nrow, m->hfield_nrow, s.nhfield);
+  COPY(om->hfield_ncol, m->hfield_ncol, s.nhfield);
+  COPY(om->hfield_adr, m->hfield_adr, s.nhfield);
+  COPY(om->hfield_size, m->hfield_size, 4 * s.nhfield);
+  COPY(om->hfield_data, m->hfield_data, s.nhfielddata);
+
+  // actuators
+  for (int i = 0; i < s.nu; i++) {
+    om->actuator_trnid[i] = m->actuator_trnid[2 * i];
+    om->actuator_servo[i] = ost_actuatorKind(m, i, NULL, 0) == 1;
+    om->actuator_ctrllimited[i] = m->actuator_ctrllimited[i];
+    om->actuator_forcelimited[i] = m->actuator_forcelimited[i];
+    om->actuator_gear[i] = m->actuator_gear[6 * i];
+    om->actuator_gainprm[i] = m->actuator_gainprm[mjNGAIN * i];
+    COPY(om->actuator_biasprm + 3 * i, m->actuator_biasprm + mjNBIAS * i, 3);
+    COPY(om->actuator_ctrlrange + 2 * i, m->actuator_ctrlrange + 2 * i, 2);
+    COPY(om->actuator_forcerange + 2 * i, m->actuator_forcerange + 2 * i, 2);
+  }
+#undef COPY
+  return OST_OK;
+}

@@ -1,0 +1,32 @@
+// ost_rows_native.c: the `native` geometry provider on the CPU for ost_step: thin wrappers that
+// hand one mjData's state to core's portable functions (core/ost_rows_native.h) and translate
+// their status codes into messages. Invariant: reads d, writes only the context's world.
+#include "ost_internal.h"
+
+#if __has_include("ost_kinematics.h") && __has_include("ost_collision_terrain.h")
+#include "ost_rows_native.h"
+
+int ost_rowsNative(ostContext* c, mjData* d, mjtNum h) {
+  switch (osti_nativeIterate(&c->native, &c->kin, &c->world, d->qpos, d->ctrl, c->opt.margin,
+                             h)) {
+  case OST_ROWS_CONTACT_OVERFLOW:
+    return ost_fail(c, OST_ERR_OVERFLOW, "contact capacity exceeded: more than nconmax=%d "
+                    "contacts (raise <size nconmax=...>)", c->mo->nconmax);
+  case OST_ROWS_ROW_OVERFLOW:
+    return ost_fail(c, OST_ERR_OVERFLOW, "row capacity %d exceeded", c->world.nrow_max);
+  default:
+    return OST_OK;
+  }
+}
+
+
+void ost_startNative(ostContext* c, const mjData* d, mjtNum h) {
+  osti_nativeStart(&c->native, &c->kin, &c->world, d->qpos, d->qvel, d->ctrl, d->qfrc_applied,
+                   d->xfrc_applied, h);
+}
+#else
+int ost_rowsNative(ostContext* c, mjData* d, mjtNum h) {
+  return ost_fail(c, OST_ERR_MODEL, "native provider not built");
+}
+void ost_startNative(ostContext* c, const mjData* d, mjtNum h) {}
+#endif
