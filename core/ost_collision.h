@@ -53,7 +53,12 @@ OST_HD int osti_collidePair(const ostModel* m, const ostKin* k, int p, ostContac
                               m->mpr_iterations);
   }
   if (m->geom_terrain[g1]) {
+    // the packed terrain is in the world frame: an identity pose stands for the geom
     int id = m->geom_dataid[g1];
+    for (int i = 0; i < 9; i++) {
+      a.mat[i] = i % 4 == 0;
+    }
+    a.pos[0] = a.pos[1] = a.pos[2] = 0;
     const int* grid = m->mesh_grid + 3 * id;
     const ostNum* box = m->mesh_gridbox + 5 * id;
     ostTerrain t;

@@ -134,11 +134,11 @@ typedef struct ostModel_ {        // Ostrich's model: sizes, options and pointer
 } ostModel;
 
 // disable bits read by core (mjtDisableBit values)
-#define OST_DSBL_CONTACT   (1 << 2)
-#define OST_DSBL_PASSIVE   (1 << 3)
-#define OST_DSBL_GRAVITY   (1 << 4)
-#define OST_DSBL_CLAMPCTRL (1 << 5)
-#define OST_DSBL_LIMIT     (1 << 8)
+#define OST_DSBL_LIMIT     (1 << 3)
+#define OST_DSBL_CONTACT   (1 << 4)
+#define OST_DSBL_PASSIVE   (1 << 5)
+#define OST_DSBL_GRAVITY   (1 << 6)
+#define OST_DSBL_CLAMPCTRL (1 << 7)
 #define OST_DSBL_ACTUATION (1 << 10)
 
 // one world's kinematic and dynamic quantities at a configuration (mjData's names)

@@ -63,9 +63,6 @@ void ost_contactKey(const mjModel* m, const mjData* d, const mjContact* con, mjt
 int ost_packModel(const mjModel* m, int ncon_max, ostModel* om, void** block, char* err,
                   int err_sz);
 
-// geom id of the mesh named by <custom><text name="ostrich/terrain">, or -1
-int ost_terrainGeom(const mjModel* m);
-
 // classify actuator i: 1 implicit servo, 0 explicit force, -1 unsupported (message in err)
 int ost_actuatorKind(const mjModel* m, int i, char* err, int err_sz);
 

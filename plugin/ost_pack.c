@@ -9,6 +9,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "ost_collision_terrain.h"
 #include "ost_internal.h"
 
 #define REFUSE(...)                                  \
@@ -82,8 +83,13 @@ static int dynamicPair(const mjModel* m, int g1, int g2) {
 
 
 int ost_checkNative(const mjModel* m, char* err, int err_sz) {
-  char nb[32];
+  char nb[32], nb2[32];
   int terrain = ost_terrainGeom(m);
+  int text = mj_name2id(m, mjOBJ_TEXT, "ostrich/terrain");
+  if (text >= 0 && (terrain < 0 || m->geom_type[terrain] != mjGEOM_MESH)) {
+    REFUSE("ostrich/terrain names '%s', which is not a mesh geom",
+           m->text_data + m->text_adr[text]);
+  }
   if (m->neq > 0) {
     REFUSE("equality constraint '%s': the native geometry provider has no equality rows yet "
            "(use ostrich/geometry 0, the mujoco provider)", name(m, mjOBJ_EQUALITY, 0, nb, 32));
@@ -92,8 +98,18 @@ int ost_checkNative(const mjModel* m, char* err, int err_sz) {
     REFUSE("tendon '%s': the native geometry provider has no tendons",
            name(m, mjOBJ_TENDON, 0, nb, 32));
   }
+  if (m->nmocap > 0) {
+    REFUSE("mocap bodies are not supported by the native provider");
+  }
+  if (m->opt.viscosity > 0 || m->opt.density > 0) {
+    REFUSE("fluid forces (option viscosity/density) are not supported by the native provider");
+  }
   for (int j = 0; j < m->njnt; j++) {
     int t = m->jnt_type[j];
+    if ((t == mjJNT_HINGE || t == mjJNT_SLIDE) && m->qpos0[m->jnt_qposadr[j]] != 0) {
+      REFUSE("joint '%s': a nonzero ref is not supported by the native provider",
+             name(m, mjOBJ_JOINT, j, nb, 32));
+    }
     if (m->jnt_limited[j] && (t == mjJNT_BALL || t == mjJNT_FREE)) {
       REFUSE("joint '%s': limits on ball joints are not supported by the native provider",
              name(m, mjOBJ_JOINT, j, nb, 32));
@@ -108,9 +124,18 @@ int ost_checkNative(const mjModel* m, char* err, int err_sz) {
   }
   for (int g = 0; g < m->ngeom; g++) {
     int t = m->geom_type[g];
-    if (t == mjGEOM_MESH && g == terrain && m->body_weldid[m->geom_bodyid[g]] != 0) {
-      REFUSE("geom '%s': a terrain mesh must be static (attached to the world)",
+    if (t == mjGEOM_MESH && g == terrain && m->geom_bodyid[g] != 0) {
+      REFUSE("geom '%s': a terrain mesh must be a geom of the worldbody",
              name(m, mjOBJ_GEOM, g, nb, 32));
+    }
+    if (t == mjGEOM_MESH && g != terrain) {
+      for (int p = 0; p < m->ngeom; p++) {
+        if (m->geom_type[p] == mjGEOM_PLANE && dynamicPair(m, p, g)) {
+          REFUSE("geom pair '%s' (plane) - '%s' (mesh): plane-mesh contacts need the mesh's "
+                 "convex-hull graph, which the native provider does not pack yet",
+                 name(m, mjOBJ_GEOM, p, nb, 32), name(m, mjOBJ_GEOM, g, nb2, 32));
+        }
+      }
     }
     if (t == mjGEOM_HFIELD && m->body_weldid[m->geom_bodyid[g]] != 0) {
       REFUSE("geom '%s': a height field must be static (attached to the world)",
@@ -175,10 +200,28 @@ static int candidatePairs(const mjModel* m, ostModel* om) {
 }
 
 
-// the terrain grid of mesh geom g: its sizes (cells, cell->face entries) or, with om, its data
-static void terrainGrid(const mjModel* m, int g, ostModel* om, int* ncell, int* ncellface) {
-  *ncell = 0;
-  *ncellface = 0;  // TERRAIN-GRID: filled in when core/ost_collision_terrain.h lands
+// the terrain mesh of geom g as an ostTerrain in the world frame: its vertices mapped through
+// the geom's pose into vert (3 x nvert, caller-sized), faces from m, grid geometry (about four
+// faces per cell) and base 0.5 m below the lowest vertex (the prisms' bottom)
+static void terrainOf(const mjModel* m, int g, ostNum* vert, ostTerrain* t) {
+  int id = m->geom_dataid[g];
+  mjtNum R[9];
+  mju_quat2Mat(R, m->geom_quat + 4 * g);
+  memset(t, 0, sizeof(*t));
+  t->nvert = m->mesh_vertnum[id];
+  t->nface = m->mesh_facenum[id];
+  t->vert = vert;
+  t->face = m->mesh_face + 3 * m->mesh_faceadr[id];
+  mjtNum zmin = HUGE_VAL;
+  for (int v = 0; v < t->nvert; v++) {
+    const float* p = m->mesh_vert + 3 * (m->mesh_vertadr[id] + v);
+    mjtNum local[3] = {p[0], p[1], p[2]};
+    mju_mulMatVec(vert + 3 * v, R, local, 3, 3);
+    mju_addTo3(vert + 3 * v, m->geom_pos + 3 * g);
+    zmin = mju_min(zmin, vert[3 * v + 2]);
+  }
+  t->base = zmin - 0.5;
+  ostu_terrainGridInit(t, 0, 0);
 }
 
 
@@ -205,15 +248,25 @@ int ost_packModel(const mjModel* m, int ncon_max, ostModel* om, void** block, ch
   s.nhfield = m->nhfield;
   s.nhfielddata = m->nhfielddata;
   s.ncon_max = ncon_max;
+  ostNum* tvert = NULL;
+  ostTerrain t;
   if (terrain >= 0) {
-    s.nmeshface = m->mesh_facenum[m->geom_dataid[terrain]];
-    terrainGrid(m, terrain, NULL, &s.ncell, &s.ncellface);
+    tvert = (ostNum*)malloc(3 * sizeof(ostNum) * m->mesh_vertnum[m->geom_dataid[terrain]]);
+    if (!tvert) {
+      if (err) snprintf(err, err_sz, "cannot allocate the terrain mesh");
+      return OST_ERR_MEMORY;
+    }
+    terrainOf(m, terrain, tvert, &t);
+    s.nmeshface = t.nface;
+    s.ncell = t.gnx * t.gny;
+    s.ncellface = ostu_terrainGridSize(&t);
   }
 
   // one block for every array
   size_t sz = ostu_modelSize(s);
   void* buf = aligned_alloc(64, OST_ALIGN64(sz > 0 ? sz : 64));
   if (!buf) {
+    free(tvert);
     if (err) snprintf(err, err_sz, "cannot allocate the packed model (%zu bytes)", sz);
     return OST_ERR_MEMORY;
   }
@@ -280,11 +333,24 @@ int ost_packModel(const mjModel* m, int ncon_max, ostModel* om, void** block, ch
   COPY(om->mesh_vertnum, m->mesh_vertnum, s.nmesh);
   COPY(om->mesh_vert, m->mesh_vert, 3 * s.nmeshvert);
   if (terrain >= 0) {
-    int id = m->geom_dataid[terrain], ncell = 0, ncellface = 0;
+    // world-frame vertices (the terrain is static on the world body), faces and grid
+    int id = m->geom_dataid[terrain];
     om->mesh_faceadr[id] = 0;
     om->mesh_facenum[id] = s.nmeshface;
-    COPY(om->mesh_face, m->mesh_face + 3 * m->mesh_faceadr[id], 3 * s.nmeshface);
-    terrainGrid(m, terrain, om, &ncell, &ncellface);
+    COPY(om->mesh_vert + 3 * m->mesh_vertadr[id], tvert, 3 * t.nvert);
+    COPY(om->mesh_face, t.face, 3 * s.nmeshface);
+    int* grid = om->mesh_grid + 3 * id;
+    ostNum* box = om->mesh_gridbox + 5 * id;
+    grid[0] = t.gnx;
+    grid[1] = t.gny;
+    grid[2] = 0;
+    box[0] = t.gx0;
+    box[1] = t.gy0;
+    box[2] = t.gdx;
+    box[3] = t.gdy;
+    box[4] = t.base;
+    ostu_terrainGridBuild(om->cell_adr, om->cell_num, om->cell_face, &t);
+    free(tvert);
   }
 
   // height fields

@@ -3,7 +3,6 @@
 // their status codes into messages. Invariant: reads d, writes only the context's world.
 #include "ost_internal.h"
 
-#if __has_include("ost_kinematics.h") && __has_include("ost_collision_terrain.h")
 #include "ost_rows_native.h"
 
 int ost_rowsNative(ostContext* c, mjData* d, mjtNum h) {
@@ -24,9 +23,3 @@ void ost_startNative(ostContext* c, const mjData* d, mjtNum h) {
   osti_nativeStart(&c->native, &c->kin, &c->world, d->qpos, d->qvel, d->ctrl, d->qfrc_applied,
                    d->xfrc_applied, h);
 }
-#else
-int ost_rowsNative(ostContext* c, mjData* d, mjtNum h) {
-  return ost_fail(c, OST_ERR_MODEL, "native provider not built");
-}
-void ost_startNative(ostContext* c, const mjData* d, mjtNum h) {}
-#endif

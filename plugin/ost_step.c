@@ -92,7 +92,23 @@ static int prepare(ostContext* c, const mjModel* m) {
   for (int i = 0; i < mo->njnt; i++) {
     mo->jnt_margin[i] += la;
   }
-  return c->opt.geometry == OST_GEOMETRY_NATIVE ? prepareNative(c) : OST_OK;
+  if (c->opt.geometry == OST_GEOMETRY_NATIVE) {
+    return prepareNative(c);
+  }
+  for (int g = 0; g < m->ngeom && c->opt.margin > 0; g++) {
+    if (m->geom_type[g] == mjGEOM_HFIELD) {
+      return ost_fail(c, OST_ERR_MODEL, "height field '%s' with the mujoco geometry provider "
+                      "needs ostrich/margin 0: MuJoCo 2.2.2 reports height-field contact "
+                      "distances without the margin, which breaks the look-ahead (or use "
+                      "ostrich/geometry 1, native)", mj_id2name(m, mjOBJ_GEOM, g));
+    }
+  }
+  if (ost_terrainGeom(m) >= 0) {
+    return ost_fail(c, OST_ERR_MODEL, "geom '%s' is an ostrich/terrain mesh, which needs the "
+                    "native geometry provider (ostrich/geometry 1): MuJoCo 2.2.2 collides a "
+                    "mesh as its convex hull", mj_id2name(m, mjOBJ_GEOM, ost_terrainGeom(m)));
+  }
+  return OST_OK;
 }
 
 
@@ -478,6 +494,14 @@ int ost_step2(const mjModel* m, mjData* d) {
   mj_fwdAcceleration(m, d);
   mj_sensorAcc(m, d);
   c->stats.max_penetration = ost_maxPenetration(m, d);
+  if (c->opt.geometry == OST_GEOMETRY_NATIVE) {
+    // native contacts at q+ (the best iterate's), e.g. of a terrain mesh MuJoCo cannot collide
+    mjtNum pen = 0;
+    for (int i = 0; i < c->kin.ncon; i++) {
+      pen = mju_max(pen, -c->kin.contact[i].dist);
+    }
+    c->stats.max_penetration = pen;
+  }
   return OST_OK;
 }
 

@@ -86,6 +86,10 @@ int ost_checkModel(const mjModel* m, char* err, int err_sz);
 // first geom pair, joint or feature it cannot do.
 int ost_checkNative(const mjModel* m, char* err, int err_sz);
 
+// Geom id of the mesh that <custom><text name="ostrich/terrain" data="GEOM"/> marks as a
+// non-convex terrain surface (native provider only), or -1 if none.
+int ost_terrainGeom(const mjModel* m);
+
 // Largest disagreements of the native provider with MuJoCo (ost_compareNative).
 typedef struct ostNativeReport_ {
   int    nstate;                  // configurations compared (keyframes + random)

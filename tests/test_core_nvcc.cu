@@ -1,7 +1,19 @@
 // test_core_nvcc.cu: every core/ header compiles under nvcc, and the per-world functions are
-// callable from a kernel (host+device inline). Compiled, not run, in CI.
+// callable from a kernel (host+device inline): the solver, and the native geometry provider
+// (kinematics, dynamics, collision of every pair type, rows). Compiled, not run, in CI.
+#include "ost_collision.h"
+#include "ost_collision_box.h"
+#include "ost_collision_boxbox.h"
+#include "ost_collision_convex.h"
+#include "ost_collision_mpr.h"
+#include "ost_collision_primitive.h"
+#include "ost_collision_terrain.h"
 #include "ost_constraint.h"
+#include "ost_geom.h"
 #include "ost_hd.h"
+#include "ost_kinematics.h"
+#include "ost_model.h"
+#include "ost_rows_native.h"
 #include "ost_solver.h"
 #include "ost_util_dense.h"
 
@@ -17,4 +29,17 @@ __global__ void ost_coreCompile_kernel(ostWorld* worlds, const ostSolverOptions*
   osti_newtonDirection(worlds + w, opt);
   osti_trial(worlds + w, 0.5);
   osti_matchPrevious(worlds + w);
+}
+
+
+__global__ void ost_nativeCompile_kernel(ostModel m, ostKin* kin, ostWorld* worlds,
+                                         const ostNum* qpos, const ostNum* qvel,
+                                         const ostNum* ctrl, int nworld, int* status) {
+  int w = blockIdx.x * blockDim.x + threadIdx.x;
+  if (w >= nworld) {
+    return;  // guard first
+  }
+  osti_nativeStart(&m, kin + w, worlds + w, qpos, qvel, ctrl, NULL, NULL, 0.01);
+  status[w] = osti_nativeIterate(&m, kin + w, worlds + w, qpos, ctrl, 0.01, 0.01);
+  osti_passive(&m, kin + w, qpos, qvel);
 }
