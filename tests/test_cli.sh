@@ -106,7 +106,7 @@ EOF
 
 KEYS='["engine","model","h","steps","wall_s","nan","max_penetration","mean_residual",
        "mean_newton_iter","final_qpos"]'
-OPTIONS=(--engine --h --duration --steps --ctrl --newton --pcr --out)
+OPTIONS=(--engine --h --duration --steps --ctrl --newton --pcr --geometry --out)
 BOX=$MODELS/box_plane.xml
 PALLET=$MODELS/robot_pallet.xml
 
@@ -192,6 +192,35 @@ expect_rc 0 "robot_pallet, ostrich, h = 0.05, 6 s, ctrl 3,3,3"
 expect_py "robot_pallet (ostrich): 120 steps, no NaN, on the pallet on the way, over it at the end" \
   'j["steps"] == 120 and j["nan"] is False and j["max_penetration"] < 0.02
    and max(float(r[3]) for r in rows[1:]) > 0.48 and j["final_qpos"][0] > 3.0' "$tmp/po.csv"
+
+
+#---------------------------------- native geometry -----------------------------------------------
+# `ostrich check` compares native geometry with MuJoCo (JSON, exit 0 within tolerance); a model
+# native cannot represent is refused (exit 2, named); `sim --geometry native` drives the robot
+# over the mesh terrain (Ostrich-only: MuJoCo 2.2.2 collides a mesh as its convex hull).
+
+run check "$PALLET" --states 20 --seed 3
+expect_rc 0 "check robot_pallet: native equals MuJoCo"
+expect_py "check robot_pallet: every error within tolerance" \
+  'j["ok"] is True and j["states"] == 20 and j["contacts"] > 0 and j["mass_matrix"] < 1e-10
+   and j["jacobian"] < 1e-10 and j["contact_count"] == 0 and j["contact_dist"] < 1e-9'
+run check --help
+expect_rc 0 "ostrich check --help"
+expect_mentions "ostrich check --help mentions its options" --states --seed
+cat > "$tmp/eq.xml" <<'XML'
+<mujoco><worldbody><body><joint name="a" type="hinge"/><geom size=".1"/></body>
+<body><joint name="b" type="hinge"/><geom size=".1"/></body></worldbody>
+<equality><joint name="couple" joint1="a" joint2="b"/></equality></mujoco>
+XML
+run check "$tmp/eq.xml"
+expect_rc 2 "check refuses a model native cannot represent"
+if grep -q "couple" "$tmp/err"; then pass "the refusal names the equality"; else fail "refusal names it"; fi
+expect_usage_error "bad --geometry" sim "$BOX" --geometry fast
+
+run sim "$MODELS/terrain_mesh.xml" --duration 4 --ctrl 3,3,3
+expect_rc 0 "terrain_mesh, ostrich native, h = 0.05, 4 s"
+expect_py "terrain_mesh: drives about 4 m along its line over the mesh" \
+  'j["nan"] is False and 3.8 < j["final_qpos"][0] < 4.5 and abs(j["final_qpos"][1]) < 0.3'
 
 
 #---------------------------------- summary -------------------------------------------------------
