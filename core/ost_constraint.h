@@ -51,6 +51,55 @@ OST_HD ostNum osti_fb(ostNum a, ostNum b, ostNum eps, ostNum* fa, ostNum* fb) {
 }
 
 
+// rows n, t1, t2 of a contact from the translational Jacobians j1, j2 (3 x nv each) of its two
+// bodies at the contact point: frame rows times (j2 - j1), so J_n u > 0 separates. t1, t2 may be
+// NULL (frictionless). Returns 0 if the contact moves no degree of freedom. Shared by both
+// geometry providers.
+OST_HD int osti_contactRows(const ostNum frame[9], const ostNum* j1, const ostNum* j2, int nv,
+                            ostNum* Jn, ostNum* Jt1, ostNum* Jt2) {
+  int any = 0;
+  for (int j = 0; j < nv; j++) {
+    ostNum dx = j2[j] - j1[j], dy = j2[nv + j] - j1[nv + j], dz = j2[2 * nv + j] - j1[2 * nv + j];
+    Jn[j] = frame[0] * dx + frame[1] * dy + frame[2] * dz;
+    if (Jt1) {
+      Jt1[j] = frame[3] * dx + frame[4] * dy + frame[5] * dz;
+      Jt2[j] = frame[6] * dx + frame[7] * dy + frame[8] * dz;
+    }
+    any |= Jn[j] != 0;
+  }
+  return any;
+}
+
+
+// matching key of a contact: its position pos in the frame (xpos, xmat) of a moving body of the
+// pair, key = xmat' (pos - xpos), so that contacts keep their keys while the bodies move
+OST_HD void osti_contactKeyOf(ostNum key[3], const ostNum pos[3], const ostNum xpos[3],
+                              const ostNum xmat[9]) {
+  ostNum dx[3] = {pos[0] - xpos[0], pos[1] - xpos[1], pos[2] - xpos[2]};
+  for (int r = 0; r < 3; r++) {
+    key[r] = xmat[r] * dx[0] + xmat[3 + r] * dx[1] + xmat[6 + r] * dx[2];
+  }
+}
+
+
+// the implicit servo row of actuator act (eq. 8): force = g ctrl + b0 + b1 L(q) + b2 V with
+// V = moment u, compliance 1 / (kd + h kp) where kp = -b1, kd = -b2; ctrl already clamped;
+// the force is limited to range when forcelimited. The caller fills the row's Jacobian (moment).
+OST_HD void osti_servoRow(ostRow* r, int act, ostNum gain, const ostNum bias[3], ostNum ctrl,
+                          ostNum length, ostNum h, int forcelimited, const ostNum range[2]) {
+  r->type = OST_ROW_SERVO;
+  r->normal = -1;
+  r->obj[0] = act;
+  r->obj[1] = 0;
+  r->key[0] = r->key[1] = r->key[2] = 0;
+  r->pos = gain * ctrl + bias[0] + bias[1] * length;
+  r->mu = bias[2];
+  r->alpha = 1 / (-bias[2] - h * bias[1]);
+  r->lo = forcelimited ? range[0] : -HUGE_VAL;
+  r->hi = forcelimited ? range[1] : HUGE_VAL;
+}
+
+
 // project the multipliers onto their admissible sets (paper section III-B safeguards):
 // lambda_n >= 0, |lambda_f| <= mu lambda_n (cone clamp), servo forces within forcerange
 OST_HD void osti_projectRows(ostNum* lambda, const ostRow* rows, int nrow) {

@@ -34,13 +34,7 @@ OST_HD void osti_contactKey(const ostModel* m, const ostKin* k, int i, ostNum ke
   if (b == 0) {
     b = m->geom_bodyid[m->pair_geom1[p]];
   }
-  const ostNum* pos = k->contact[i].pos;
-  const ostNum* R = k->xmat + 9 * b;
-  ostNum dx[3] = {pos[0] - k->xpos[3 * b], pos[1] - k->xpos[3 * b + 1],
-                  pos[2] - k->xpos[3 * b + 2]};
-  for (int r = 0; r < 3; r++) {
-    key[r] = R[r] * dx[0] + R[3 + r] * dx[1] + R[6 + r] * dx[2];  // R' dx
-  }
+  osti_contactKeyOf(key, k->contact[i].pos, k->xpos + 3 * b, k->xmat + 9 * b);
 }
 
 
@@ -58,18 +52,7 @@ OST_HD int osti_contactJacobian(const ostModel* m, ostKin* k, int i, ostNum* Jn,
   }
   if (b1 > 0) osti_jac(m, k, j1, NULL, con->pos, b1);
   if (b2 > 0) osti_jac(m, k, j2, NULL, con->pos, b2);
-  int any = 0;
-  const ostNum* f = con->frame;
-  for (int j = 0; j < nv; j++) {
-    ostNum dx = j2[j] - j1[j], dy = j2[nv + j] - j1[nv + j], dz = j2[2 * nv + j] - j1[2 * nv + j];
-    Jn[j] = f[0] * dx + f[1] * dy + f[2] * dz;
-    if (Jt1) {
-      Jt1[j] = f[3] * dx + f[4] * dy + f[5] * dz;
-      Jt2[j] = f[6] * dx + f[7] * dy + f[8] * dz;
-    }
-    any |= Jn[j] != 0;
-  }
-  return any;
+  return osti_contactRows(con->frame, j1, j2, nv, Jn, Jt1, Jt2);
 }
 
 
@@ -174,14 +157,9 @@ OST_HD int osti_nativeRows(const ostModel* m, ostKin* k, ostWorld* w, const ostN
       if (n + 1 > w->nrow_max) {
         return OST_ROWS_ROW_OVERFLOW;
       }
-      const ostNum* b = m->actuator_biasprm + 3 * i;
-      ostRow* r = osti_newRow(w, n, OST_ROW_SERVO);
-      r->obj[0] = i;
-      r->pos = m->actuator_gainprm[i] * osti_ctrl(m, ctrl, i) + b[0] + b[1] * k->actuator_length[i];
-      r->mu = b[2];
-      r->alpha = 1 / (-b[2] - h * b[1]);  // 1 / (kd + h kp)
-      r->lo = m->actuator_forcelimited[i] ? m->actuator_forcerange[2 * i] : -HUGE_VAL;
-      r->hi = m->actuator_forcelimited[i] ? m->actuator_forcerange[2 * i + 1] : HUGE_VAL;
+      osti_servoRow(w->rows + n, i, m->actuator_gainprm[i], m->actuator_biasprm + 3 * i,
+                    osti_ctrl(m, ctrl, i), k->actuator_length[i], h,
+                    m->actuator_forcelimited[i], m->actuator_forcerange + 2 * i);
       for (int c = 0; c < nv; c++) {
         w->J[(size_t)n * nv + c] = k->actuator_moment[(size_t)i * nv + c];
       }

@@ -28,6 +28,7 @@ static void freeContext(ostContext* c) {
   free(c->jac);
   free(c->world_buf);
   free(c->native_block);
+  free(c->native_key);
   free(c->kin_buf);
   free(c);
 }

@@ -30,6 +30,11 @@ typedef struct ostContext_ {
   void*          world_buf;       // the core world's single allocation
   ostModel       native;          // native provider: packed model (geometry option 1)
   void*          native_block;    // its single allocation
+  void*          native_key;      // copy of the user's m->buffer when packed (change detection)
+  size_t         native_key_sz;   // its size in bytes
+  mjOption       native_opt;      // the user's m->opt when packed
+  int            native_nconmax;  // the user's m->nconmax when packed
+  double         native_margin;   // the look-ahead margin when packed
   void*          kin_buf;         // its kinematics' single allocation
   ostKin         kin;             // native kinematics, pointers into kin_buf
   ostWorld       world;           // core solver state, pointers into world_buf

@@ -147,10 +147,9 @@ int ost_checkNative(const mjModel* m, char* err, int err_sz) {
 
 
 // append candidate pair (g1, g2) with its contact parameters; geoms ordered by type as MuJoCo
-static void addPair(ostModel* om, int* n, const mjModel* m, int g1, int g2, int condim,
-                    mjtNum margin, mjtNum gap, mjtNum friction) {
+static void addPair(ostModel* om, int* n, const mjModel* m, int terrain, int g1, int g2,
+                    int condim, mjtNum margin, mjtNum gap, mjtNum friction) {
   // a terrain mesh goes first, like a height field, so normals point from the terrain out
-  int terrain = ost_terrainGeom(m);
   if (g2 == terrain || (g1 != terrain && m->geom_type[g1] > m->geom_type[g2])) {
     int t = g1;
     g1 = g2;
@@ -170,7 +169,7 @@ static void addPair(ostModel* om, int* n, const mjModel* m, int g1, int g2, int 
 
 // candidate pairs into om (NULL: count only); explicit pairs first, as MuJoCo
 static int candidatePairs(const mjModel* m, ostModel* om) {
-  int n = 0;
+  int n = 0, terrain = ost_terrainGeom(m);
   if (m->opt.disableflags & mjDSBL_CONTACT) {
     return 0;
   }
@@ -178,7 +177,7 @@ static int candidatePairs(const mjModel* m, ostModel* om) {
     int g1 = m->pair_geom1[i], g2 = m->pair_geom2[i];
     if (typesCollide(m->geom_type[g1] < m->geom_type[g2] ? m->geom_type[g1] : m->geom_type[g2],
                      m->geom_type[g1] < m->geom_type[g2] ? m->geom_type[g2] : m->geom_type[g1])) {
-      addPair(om, &n, m, g1, g2, m->pair_dim[i], m->pair_margin[i], m->pair_gap[i],
+      addPair(om, &n, m, terrain, g1, g2, m->pair_dim[i], m->pair_margin[i], m->pair_gap[i],
               m->pair_friction[5 * i]);
     }
   }
@@ -193,7 +192,7 @@ static int candidatePairs(const mjModel* m, ostModel* om) {
       mjtNum margin = mju_max(m->geom_margin[g1], m->geom_margin[g2]);
       mjtNum gap = mju_max(m->geom_gap[g1], m->geom_gap[g2]);
       mjtNum mu = mju_max(m->geom_friction[3 * g1], m->geom_friction[3 * g2]);
-      addPair(om, &n, m, g1, g2, condim, margin, gap, mu);
+      addPair(om, &n, m, terrain, g1, g2, condim, margin, gap, mu);
     }
   }
   return n;

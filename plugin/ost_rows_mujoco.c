@@ -36,17 +36,7 @@ static int contactJacobian(ostContext* c, const mjData* d, const mjContact* con,
   memset(c->jac, 0, 6 * nv * sizeof(mjtNum));
   if (b1 > 0) mj_jac(m, d, j1, NULL, con->pos, b1);
   if (b2 > 0) mj_jac(m, d, j2, NULL, con->pos, b2);
-  int any = 0;
-  for (int j = 0; j < nv; j++) {
-    mjtNum dx = j2[j] - j1[j], dy = j2[nv + j] - j1[nv + j], dz = j2[2 * nv + j] - j1[2 * nv + j];
-    Jn[j] = con->frame[0] * dx + con->frame[1] * dy + con->frame[2] * dz;
-    if (Jt1) {
-      Jt1[j] = con->frame[3] * dx + con->frame[4] * dy + con->frame[5] * dz;
-      Jt2[j] = con->frame[6] * dx + con->frame[7] * dy + con->frame[8] * dz;
-    }
-    any |= Jn[j] != 0;
-  }
-  return any;
+  return osti_contactRows(con->frame, j1, j2, nv, Jn, Jt1, Jt2);
 }
 
 
@@ -55,9 +45,7 @@ void ost_contactKey(const mjModel* m, const mjData* d, const mjContact* con, mjt
   if (b == 0) {
     b = m->geom_bodyid[con->geom1];
   }
-  mjtNum dx[3] = {con->pos[0] - d->xpos[3 * b], con->pos[1] - d->xpos[3 * b + 1],
-                  con->pos[2] - d->xpos[3 * b + 2]};
-  mju_mulMatTVec(key, d->xmat + 9 * b, dx, 3, 3);
+  osti_contactKeyOf(key, con->pos, d->xpos + 3 * b, d->xmat + 9 * b);
 }
 
 
@@ -158,16 +146,8 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
         const mjtNum* cr = m->actuator_ctrlrange + 2 * i;
         ctrl = ctrl < cr[0] ? cr[0] : (ctrl > cr[1] ? cr[1] : ctrl);
       }
-      ostRow* r = w->rows + n;
-      memset(r, 0, sizeof(ostRow));
-      r->type = OST_ROW_SERVO;
-      r->normal = -1;
-      r->obj[0] = i;
-      r->pos = g[0] * ctrl + b[0] + b[1] * d->actuator_length[i];
-      r->mu = b[2];
-      r->alpha = 1 / (-b[2] - h * b[1]);  // 1 / (kd + h kp)
-      r->lo = m->actuator_forcelimited[i] ? m->actuator_forcerange[2 * i] : -HUGE_VAL;
-      r->hi = m->actuator_forcelimited[i] ? m->actuator_forcerange[2 * i + 1] : HUGE_VAL;
+      osti_servoRow(w->rows + n, i, g[0], b, ctrl, d->actuator_length[i], h,
+                    m->actuator_forcelimited[i], m->actuator_forcerange + 2 * i);
       memcpy(w->J + (size_t)n * nv, d->actuator_moment + (size_t)i * nv, nv * sizeof(ostNum));
       n++;
     }

@@ -244,6 +244,29 @@ START_TEST(test_nativePalletClimb) {
 END_TEST
 
 
+// the packed model follows the user's mjModel: an edit between steps (gravity reversed, then a
+// body mass changed) takes effect at the next native step, as with the mujoco provider
+START_TEST(test_nativeFollowsModelEdits) {
+  ost_fixtureSetup();
+  mjModel* m = ost_fixtureLoadModel("box_plane.xml");
+  mjData* d = mj_makeData(m);
+  ostOptions o;
+  ck_assert_int_eq(ost_readOptions(m, &o, NULL, 0), OST_OK);
+  o.geometry = OST_GEOMETRY_NATIVE;
+  o.timestep = 0.01;
+  ck_assert_int_eq(ost_setOptions(m, d, &o), OST_OK);
+  for (int k = 0; k < 5; k++) ck_assert_int_eq(ost_step(m, d), OST_OK);
+  ck_assert_double_lt(fabs(d->qvel[2]), 1e-6);  // resting on the plane
+  m->opt.gravity[2] = 9.81;                     // gravity now pulls up
+  ck_assert_int_eq(ost_step(m, d), OST_OK);
+  printf("native after reversing gravity: vz %.6f (expected 0.0981)\n", d->qvel[2]);
+  ck_assert_double_eq_tol(d->qvel[2], 9.81 * 0.01, 1e-6);
+  ost_deleteData(d);
+  mj_deleteModel(m);
+}
+END_TEST
+
+
 // features native cannot do are refused by name, by ost_checkNative and by the step
 START_TEST(test_nativeRefusals) {
   ost_fixtureSetup();
@@ -278,6 +301,7 @@ int main(void) {
   TCase* tc = tcase_create("native");
   tcase_set_timeout(tc, 600);
   tcase_add_test(tc, test_nativeRefusals);
+  tcase_add_test(tc, test_nativeFollowsModelEdits);
   tcase_add_test(tc, test_nativeMatchesMujoco);
   tcase_add_test(tc, test_nativeStepEqualsMujoco);
   tcase_add_test(tc, test_nativeStepFromSameState);
