@@ -44,7 +44,7 @@ OST_HD int osti_boxBallBox(ostContact* con, ostNum margin, const ostNum c1[3], o
     ostNum best = 2 * (size2[0] + size2[1] + size2[2]);
     int k = 0;
     for (int i = 0; i < 6; i++) {
-      ostNum gap = fabs((double)((i % 2 ? 1 : -1) * size2[i/2] - c[i/2]));
+      ostNum gap = fabs((i % 2 ? 1 : -1) * size2[i/2] - c[i/2]);
       if (gap < best) {
         best = gap;
         k = i;
@@ -150,7 +150,7 @@ OST_HD int osti_collideCapsuleBox(ostContact* con, const ostGeom* g1, const ostG
       ostNum ma = s[j] * s[j], mb = -s[j] * ha[j], mc = half * half;
       ostNum u = -s[j] * dif[j], v = osti_primDot(ha, dif);
       ostNum det = ma*mc - mb*mb;
-      if (fabs((double)det) < OST_MINVAL) {
+      if (fabs(det) < OST_MINVAL) {
         continue;
       }
       ostNum idet = 1 / det;
@@ -214,7 +214,7 @@ OST_HD int osti_collideCapsuleBox(ostContact* con, const ostGeom* g1, const ostG
       if (axis[ax]*axis[ax] > 0.5) {
         // along the box edge: at most to its other corner
         sp = de;
-        ostNum e1 = 2 * s[ax] / fabs((double)ha[ax]);
+        ostNum e1 = 2 * s[ax] / fabs(ha[ax]);
         if (e1 < sp) {
           sp = e1;
         }
@@ -222,11 +222,11 @@ OST_HD int osti_collideCapsuleBox(ostContact* con, const ostGeom* g1, const ostG
       } else {
         // over a face: at most to the face's far sides
         sp = dp;
-        ostNum e1 = 2 * s[ax1] / fabs((double)ha[ax1]);
+        ostNum e1 = 2 * s[ax1] / fabs(ha[ax1]);
         if (e1 < sp) {
           sp = e1;
         }
-        e1 = 2 * s[ax2] / fabs((double)ha[ax2]);
+        e1 = 2 * s[ax2] / fabs(ha[ax2]);
         if (e1 < sp) {
           sp = e1;
         }
@@ -238,7 +238,7 @@ OST_HD int osti_collideCapsuleBox(ostContact* con, const ostGeom* g1, const ostG
     int lean = (axisdir ^ corner) & (7 - (1 << edge));
     if (lean == 1 || lean == 2 || lean == 4) {
       int ax = edge, ax1 = (edge + 1) % 3, ax2 = (edge + 2) % 3;
-      if (fabs((double)axis[ax1]) > fabs((double)axis[ax2])) {
+      if (fabs(axis[ax1]) > fabs(axis[ax2])) {
         ax1 = ax2;
       }
       ax2 = 3 - ax - ax1;
@@ -249,13 +249,13 @@ OST_HD int osti_collideCapsuleBox(ostContact* con, const ostGeom* g1, const ostG
         mul = -1;
         sp = 1 + bestseg;
       }
-      ostNum e1 = 2 * s[ax2] / fabs((double)ha[ax2]);
+      ostNum e1 = 2 * s[ax2] / fabs(ha[ax2]);
       if (e1 < sp) {
         sp = e1;
       }
       ostNum e2 = (((axisdir & (1 << ax)) != 0) == ((lean & (1 << ax2)) != 0)) ?
                   1 - bestbox : 1 + bestbox;
-      e1 = s[ax] * e2 / fabs((double)ha[ax]);
+      e1 = s[ax] * e2 / fabs(ha[ax]);
       if (e1 < sp) {
         sp = e1;
       }

@@ -83,7 +83,7 @@ OST_HD int osti_boxSegmentRect(ostNum t[4], ostNum l[4], ostNum c[4], int q[4],
                                const ostNum o[3], const ostNum dir[3], const ostNum ext[3]) {
   int cnt = 0;
   for (int qq = 0; qq < 2; qq++) {
-    if (fabs((double)dir[qq]) <= OST_MINVAL) {
+    if (fabs(dir[qq]) <= OST_MINVAL) {
       continue;
     }
     for (int side = -1; side <= 1; side += 2) {
@@ -93,7 +93,7 @@ OST_HD int osti_boxSegmentRect(ostNum t[4], ostNum l[4], ostNum c[4], int q[4],
         continue;
       }
       ostNum other = o[1-qq] + dir[1-qq] * tt;
-      if (fabs((double)other) > ext[1-qq]) {
+      if (fabs(other) > ext[1-qq]) {
         continue;
       }
       t[cnt] = tt;
@@ -133,7 +133,7 @@ OST_HD int osti_boxFacePoints(ostNum pts[][3], const ostNum pB[3], const ostNum 
   }
   int m = 1;
   for (int i = 0; i < 3; i++) {
-    if (fabs((double)rB[6+i]) < 0.5) {
+    if (fabs(rB[6+i]) < 0.5) {
       ostNum scl = sB[i] * ((low & (1 << i)) ? -2 : 2);
       for (int k = 0; k < 3; k++) {
         corner[m][k] = rB[3*k+i] * scl;
@@ -240,7 +240,7 @@ OST_HD int osti_boxEdgePoints(ostNum pts[][3], ostNum depth[], const ostNum p[3]
     axi[1][k] = P[1][k] - P[0][k];
     axi[2][k] = P[2][k] - P[0][k];
   }
-  if (fabs((double)rnorm[2]) < OST_MINVAL) {
+  if (fabs(rnorm[2]) < OST_MINVAL) {
     return 0;
   }
   ostNum innorm = (1 / rnorm[2]) * (inward ? -1 : 1);
@@ -326,7 +326,7 @@ OST_HD int osti_boxEdgePoints(ostNum pts[][3], ostNum depth[], const ostNum p[3]
     for (int k = 0; k < 3; k++) {
       pts[n][k] = (fc[k] + on2[k]) * 0.5;
     }
-    depth[n] = (ostNum)sqrt((double)g2) * (on2[2] < 0 ? -1 : 1);
+    depth[n] = sqrt(g2) * (on2[2] < 0 ? -1 : 1);
     n++;
   }
   int nf = n;
@@ -364,7 +364,7 @@ OST_HD int osti_boxEdgePoints(ostNum pts[][3], ostNum depth[], const ostNum p[3]
       }
     }
     osti_primAxpy(pts[n], mid, 0.5, pu[i]);
-    depth[n] = (ostNum)sqrt((double)g2) * (pu[i][2] < 0 ? -1 : 1);
+    depth[n] = sqrt(g2) * (pu[i][2] < 0 ? -1 : 1);
     n++;
   }
   return n;
@@ -393,7 +393,7 @@ OST_HD int osti_collideBoxBox(ostContact* con, const ostGeom* g1, const ostGeom*
     }
   }
   for (int i = 0; i < 9; i++) {
-    rotabs[i] = fabs((double)rot[i]);
+    rotabs[i] = fabs(rot[i]);
   }
 
   // extents of each box along the other's axes: plen2 = |rot| s2, plen1 = |rot|' s1
@@ -407,8 +407,8 @@ OST_HD int osti_collideBoxBox(ostContact* con, const ostGeom* g1, const ostGeom*
   }
   int code = -1;
   for (int i = 0; i < 3; i++) {
-    ostNum c1 = -fabs((double)pos21[i]) + s1[i] + plen2[i];
-    ostNum c2 = -fabs((double)pos12[i]) + s2[i] + plen1[i];
+    ostNum c1 = -fabs(pos21[i]) + s1[i] + plen2[i];
+    ostNum c2 = -fabs(pos12[i]) + s2[i] + plen1[i];
     if (c1 < -margin || c2 < -margin) {
       return 0;
     }
@@ -436,7 +436,7 @@ OST_HD int osti_collideBoxBox(ostContact* con, const ostGeom* g1, const ostGeom*
       } else {
         ax[0] = -bj[1]; ax[1] = bj[0];
       }
-      ostNum len = (ostNum)sqrt((double)osti_primDot(ax, ax));
+      ostNum len = sqrt(osti_primDot(ax, ax));
       if (len < OST_MINVAL) {
         continue;
       }
@@ -448,7 +448,7 @@ OST_HD int osti_collideBoxBox(ostContact* con, const ostGeom* g1, const ostGeom*
       ostNum c3 = 0;
       for (int k = 0; k < 3; k++) {
         if (k != i) {
-          c3 += s1[k] * fabs((double)ax[k]);
+          c3 += s1[k] * fabs(ax[k]);
         }
       }
       for (int k = 0; k < 3; k++) {
@@ -456,7 +456,7 @@ OST_HD int osti_collideBoxBox(ostContact* con, const ostGeom* g1, const ostGeom*
           c3 += s2[k] * rotabs[3*i + 3 - k - j] / len;
         }
       }
-      c3 -= fabs((double)off);
+      c3 -= fabs(off);
       if (c3 < -margin) {
         return 0;
       }
@@ -503,7 +503,7 @@ OST_HD int osti_collideBoxBox(ostContact* con, const ostGeom* g1, const ostGeom*
       osti_boxMulMatVec(t, F, s1);
     }
     for (int k = 0; k < 3; k++) {
-      ext[k] = fabs((double)t[k]);
+      ext[k] = fabs(t[k]);
     }
     p[2] -= ext[2];
     int m = osti_boxFacePoints(pts, p, r, onbox2 ? s1 : s2, ext);
@@ -558,7 +558,7 @@ OST_HD int osti_collideBoxBox(ostContact* con, const ostGeom* g1, const ostGeom*
   osti_boxMulMat(r, F, rot);
   osti_boxMulMatTVec(t, F, s1);
   for (int k = 0; k < 3; k++) {
-    ext[k] = fabs((double)t[k]);
+    ext[k] = fabs(t[k]);
   }
   p[2] -= ext[2];
   n = osti_boxEdgePoints(pts, depth, p, rnorm, r, s2, ext, j, ax1, ax2, cle2, inward, margin);

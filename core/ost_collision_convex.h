@@ -40,7 +40,7 @@ OST_HD int osti_cvxEllipsoidInside(ostNum nrm[3], const ostNum pos[3], const ost
     if (det < OST_MINVAL || a < OST_MINVAL) {
       return iter > 0;
     }
-    ostNum x = (-b + (ostNum)sqrt((double)det))/a;
+    ostNum x = (-b + sqrt(det))/a;
     if (x < 0) {
       return iter > 0;
     }
@@ -52,7 +52,7 @@ OST_HD int osti_cvxEllipsoidInside(ostNum nrm[3], const ostNum pos[3], const ost
     }
     osti_cvxNormalizeMj(nn);
     ostNum e0 = nrm[0] - nn[0], e1 = nrm[1] - nn[1], e2 = nrm[2] - nn[2];
-    ostNum change = (ostNum)sqrt((double)(e0*e0 + e1*e1 + e2*e2));
+    ostNum change = sqrt(e0*e0 + e1*e1 + e2*e2);
     nrm[0] = nn[0]; nrm[1] = nn[1]; nrm[2] = nn[2];
     if (change < 1e-6) {
       break;
@@ -149,12 +149,11 @@ OST_HD void osti_fixNormal(ostContact* con, const ostGeom* g1, const ostGeom* g2
 
     case OST_GEOM_CYLINDER: {
       // round wall only: away from the caps and 4x closer to the wall than to a cap
-      if (fabs((double)pos[2]) > 0.95*size[1]) {
+      if (fabs(pos[2]) > 0.95*size[1]) {
         break;
       }
-      ostNum dcap = (ostNum)fabs((double)(size[1] - (ostNum)fabs((double)pos[2])));
-      ostNum dwall = (ostNum)fabs((double)(size[0] -
-                                           (ostNum)sqrt((double)(pos[0]*pos[0] + pos[1]*pos[1]))));
+      ostNum dcap = fabs(size[1] - fabs(pos[2]));
+      ostNum dwall = fabs(size[0] - sqrt(pos[0]*pos[0] + pos[1]*pos[1]));
       if (dcap < 0.25*dwall) {
         break;
       }
@@ -227,8 +226,7 @@ OST_HD int osti_cvxAddPlaneMesh(ostContact* con, const ostNum v[3], const ostGeo
     pnt[k] += mesh->pos[k];
   }
   osti_cvxSub(e, pnt, first);
-  if ((ostNum)sqrt((double)(e[0]*e[0] + e[1]*e[1] + e[2]*e[2])) <
-      OST_PLANEMESH_TOL*mesh->rbound) {
+  if (sqrt(e[0]*e[0] + e[1]*e[1] + e[2]*e[2]) < OST_PLANEMESH_TOL*mesh->rbound) {
     return 0;
   }
   osti_cvxSub(dif, pnt, plane->pos);

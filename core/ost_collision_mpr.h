@@ -63,14 +63,14 @@ OST_HD void osti_cvxScale(ostNum v[3], ostNum k) {
 
 // libccd normalize: v *= 1/sqrt(v.v), no guard
 OST_HD void osti_cvxNormalizeCcd(ostNum v[3]) {
-  ostNum k = 1 / (ostNum)sqrt((double)osti_cvxDot(v, v));
+  ostNum k = 1 / sqrt(osti_cvxDot(v, v));
   osti_cvxScale(v, k);
 }
 
 
 // MuJoCo normalize (mju_normalize3): v *= 1/|v|, or (1,0,0) when |v| < OST_MINVAL
 OST_HD ostNum osti_cvxNormalizeMj(ostNum v[3]) {
-  ostNum n = (ostNum)sqrt((double)(v[0]*v[0] + v[1]*v[1] + v[2]*v[2]));
+  ostNum n = sqrt(v[0]*v[0] + v[1]*v[1] + v[2]*v[2]);
   if (n < OST_MINVAL) {
     v[0] = 1; v[1] = 0; v[2] = 0;
   } else {
@@ -83,17 +83,17 @@ OST_HD ostNum osti_cvxNormalizeMj(ostNum v[3]) {
 
 // libccd ccdIsZero: |x| < eps
 OST_HD int osti_cvxIsZero(ostNum x) {
-  return fabs((double)x) < OST_CCD_EPS;
+  return fabs(x) < OST_CCD_EPS;
 }
 
 
 // libccd ccdEq: absolute or relative equality within eps
 OST_HD int osti_cvxEq(ostNum a, ostNum b) {
-  ostNum ab = (ostNum)fabs((double)(a - b));
+  ostNum ab = fabs(a - b);
   if (ab < OST_CCD_EPS) {
     return 1;
   }
-  ostNum fa = (ostNum)fabs((double)a), fb = (ostNum)fabs((double)b);
+  ostNum fa = fabs(a), fb = fabs(b);
   return fb > fa ? ab < OST_CCD_EPS*fb : ab < OST_CCD_EPS*fa;
 }
 
@@ -213,7 +213,7 @@ OST_HD void osti_support(ostNum res[3], const ostGeom* g, const ostNum dir[3], o
     break;
 
   case OST_GEOM_CYLINDER: {
-    ostNum rho = (ostNum)sqrt((double)(d[0]*d[0] + d[1]*d[1]));
+    ostNum rho = sqrt(d[0]*d[0] + d[1]*d[1]);
     if (rho > OST_MINVAL) {
       r[0] = d[0]/rho*size[0];
       r[1] = d[1]/rho*size[0];
@@ -306,8 +306,8 @@ OST_HD int osti_mprReachTol(const ostMprPoint* P, const ostMprPoint* p4, const o
   ostNum dv1 = osti_cvxDot(P[1].v, dir), dv2 = osti_cvxDot(P[2].v, dir);
   ostNum dv3 = osti_cvxDot(P[3].v, dir), dv4 = osti_cvxDot(p4->v, dir);
   ostNum d1 = dv4 - dv1, d2 = dv4 - dv2, d3 = dv4 - dv3;
-  d1 = (ostNum)fmin((double)d1, (double)d2);
-  d1 = (ostNum)fmin((double)d1, (double)d3);
+  d1 = fmin(d1, d2);
+  d1 = fmin(d1, d3);
   return osti_cvxEq(d1, tol) || d1 < tol;
 }
 
@@ -545,7 +545,7 @@ OST_HD int osti_mprPenetration(const ostGeom* g1, const ostGeom* g2, ostNum marg
       pos[k] = (P[1].v1[k] + P[1].v2[k]) * 0.5;
     }
     dir[0] = P[1].v[0]; dir[1] = P[1].v[1]; dir[2] = P[1].v[2];
-    *depth = (ostNum)sqrt((double)osti_cvxDot(dir, dir));
+    *depth = sqrt(osti_cvxDot(dir, dir));
     osti_cvxNormalizeCcd(dir);
     return 0;
   }
@@ -576,7 +576,7 @@ OST_HD int osti_mprPenetration(const ostGeom* g1, const ostGeom* g2, ostNum marg
     osti_mprSupport(&p4, g1, g2, d, margin);
     if (osti_mprReachTol(P, &p4, d, tol) || iter > maxiter) {
       ostNum dist2 = osti_mprTriDist2(P[1].v, P[2].v, P[3].v, dir);
-      *depth = (ostNum)sqrt((double)dist2);
+      *depth = sqrt(dist2);
       if (osti_cvxIsZero(*depth)) {
         dir[0] = dir[1] = dir[2] = 0;
       } else {

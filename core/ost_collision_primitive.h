@@ -43,7 +43,7 @@ OST_HD void osti_primCross(ostNum res[3], const ostNum a[3], const ostNum b[3]) 
 
 // v /= |v| and return |v|; a vector shorter than OST_MINVAL becomes (1,0,0)
 OST_HD ostNum osti_primNormalize(ostNum v[3]) {
-  ostNum len = (ostNum)sqrt((double)osti_primDot(v, v));
+  ostNum len = sqrt(osti_primDot(v, v));
   if (len < OST_MINVAL) {
     v[0] = 1; v[1] = 0; v[2] = 0;
   } else {
@@ -105,7 +105,7 @@ OST_HD int osti_primBallBall(ostContact* con, ostNum margin, const ostNum c1[3],
                              const ostNum z1[3], const ostNum c2[3], ostNum r2,
                              const ostNum z2[3]) {
   ostNum n[3] = {c2[0] - c1[0], c2[1] - c1[1], c2[2] - c1[2]};
-  ostNum len = (ostNum)sqrt((double)osti_primDot(n, n));
+  ostNum len = sqrt(osti_primDot(n, n));
   if (len > margin + r1 + r2) {
     return 0;
   }
@@ -173,7 +173,7 @@ OST_HD int osti_collidePlaneCylinder(ostContact* con, const ostGeom* g1, const o
   // the plane takes the cylinder's x axis instead
   osti_primAxpy(w, n, -s, a);
   w[0] = -w[0]; w[1] = -w[1]; w[2] = -w[2];
-  ostNum len = (ostNum)sqrt((double)osti_primDot(w, w));
+  ostNum len = sqrt(osti_primDot(w, w));
   if (len >= OST_MINVAL) {
     ostNum scl = radius / len;
     w[0] *= scl; w[1] *= scl; w[2] *= scl;
@@ -313,7 +313,7 @@ OST_HD int osti_collideCapsuleCapsule(ostContact* con, const ostGeom* g1, const 
   ostNum det = ma*mc - mb*mb;
 
   // general configuration
-  if (fabs((double)det) >= OST_MINVAL) {
+  if (fabs(det) >= OST_MINVAL) {
     ostNum x1 = (mc*u - mb*v) / det, x2 = (ma*v - mb*u) / det;
     if (x1 > 1) {
       x1 = 1;

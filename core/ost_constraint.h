@@ -37,8 +37,10 @@ typedef struct ostRow_ {          // one constraint row                        (
   ostNum hi;                      // servo: upper force limit (+HUGE_VAL if none)
 } ostRow;
 
+#ifndef OST_NUM_TYPE  // a substituted scalar type never crosses the boundary
 OST_STATIC_ASSERT(sizeof(ostRow) == 4 * sizeof(int) + 8 * sizeof(ostNum),
                   "ostRow crosses the gcc/nvcc boundary: keep it unpadded");
+#endif
 
 
 // smoothed Fischer-Burmeister function phi(a,b) = a + b - sqrt(a^2 + b^2 + eps^2) and its

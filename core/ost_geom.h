@@ -62,7 +62,7 @@ OST_STATIC_ASSERT(sizeof(ostContact) == 13 * sizeof(ostNum),
 OST_HD void osti_makeFrame(ostNum frame[9]) {
   // normalize the normal
   ostNum nn = frame[0]*frame[0] + frame[1]*frame[1] + frame[2]*frame[2];
-  ostNum len = nn > 0 ? (ostNum)sqrt((double)nn) : 0;
+  ostNum len = nn > 0 ? sqrt(nn) : 0;
   if (len < OST_MINVAL) {
     frame[0] = 1; frame[1] = 0; frame[2] = 0;
   } else {
@@ -81,7 +81,7 @@ OST_HD void osti_makeFrame(ostNum frame[9]) {
   for (int i = 0; i < 3; i++) {
     t[i] -= proj * frame[i];
   }
-  ostNum tl = (ostNum)sqrt((double)(t[0]*t[0] + t[1]*t[1] + t[2]*t[2]));
+  ostNum tl = sqrt(t[0]*t[0] + t[1]*t[1] + t[2]*t[2]);
   if (tl < OST_MINVAL) {
     frame[3] = 1; frame[4] = 0; frame[5] = 0;
   } else {

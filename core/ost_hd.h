@@ -19,8 +19,11 @@
 #define OST_STATIC_ASSERT(c, msg) _Static_assert(c, msg)
 #endif
 
-// scalar type of the solver (double, like mjtNum by default)
-#ifdef OST_USE_FLOAT
+// scalar type of the solver (double, like mjtNum by default); C++ may substitute a class type,
+// e.g. ostDual<8> from ost_dual.h for forward-mode derivatives
+#ifdef OST_NUM_TYPE
+typedef OST_NUM_TYPE ostNum;
+#elif defined(OST_USE_FLOAT)
 typedef float ostNum;
 #else
 typedef double ostNum;

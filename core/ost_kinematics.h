@@ -40,12 +40,13 @@ OST_HD void osti_kinQuatMul(ostNum res[4], const ostNum a[4], const ostNum b[4])
 
 
 // q /= |q| as mju_normalize4: shorter than OST_MINVAL -> (1,0,0,0); within OST_MINVAL of unit
-// length -> unchanged
+// length -> unchanged (for dual numbers: the derivative is then not projected onto the unit
+// sphere, which is exact for tangent seeds q (x) (0, v/2))
 OST_HD void osti_kinNormalize4(ostNum q[4]) {
-  ostNum n = (ostNum)sqrt((double)(q[0]*q[0] + q[1]*q[1] + q[2]*q[2] + q[3]*q[3]));
+  ostNum n = sqrt(q[0]*q[0] + q[1]*q[1] + q[2]*q[2] + q[3]*q[3]);
   if (n < OST_MINVAL) {
     q[0] = 1; q[1] = 0; q[2] = 0; q[3] = 0;
-  } else if (fabs((double)(n - 1)) > OST_MINVAL) {
+  } else if (fabs(n - 1) > OST_MINVAL) {
     ostNum inv = 1 / n;
     q[0] *= inv; q[1] *= inv; q[2] *= inv; q[3] *= inv;
   }
@@ -131,12 +132,12 @@ OST_HD void osti_kinDofCom(ostNum res[6], const ostNum a[3], const ostNum* r) {
 OST_HD void osti_kinSubQuat(ostNum res[3], const ostNum q[4], const ostNum qref[4]) {
   ostNum neg[4] = {qref[0], -qref[1], -qref[2], -qref[3]}, d[4];
   osti_kinQuatMul(d, neg, q);
-  ostNum s = (ostNum)sqrt((double)(d[1]*d[1] + d[2]*d[2] + d[3]*d[3]));
+  ostNum s = sqrt(d[1]*d[1] + d[2]*d[2] + d[3]*d[3]);
   ostNum n[3] = {1, 0, 0};
   if (s >= OST_MINVAL) {
     n[0] = d[1] / s; n[1] = d[2] / s; n[2] = d[3] / s;
   }
-  ostNum t = 2 * (ostNum)atan2((double)s, (double)d[0]);
+  ostNum t = 2 * atan2(s, d[0]);
   if (t > (ostNum)3.14159265358979323846) {
     t -= 2 * (ostNum)3.14159265358979323846;
   }
@@ -214,12 +215,17 @@ OST_HD void osti_kinematics(const ostModel* m, ostKin* k, const ostNum* qpos) {
           continue;
         }
         if (type == OST_JNT_HINGE) {
-          // qloc = (cos(a/2), jnt_axis sin(a/2)); exactly the identity at a = 0
+          // qloc = (cos(a/2), jnt_axis sin(a/2)); exactly the identity at a = 0, where the
+          // first-order term jnt_axis a/2 (+0 turns a -0 into the identity's +0) still carries
+          // the derivative of a dual qpos
           if (qp[0] == 0) {
-            qloc[0] = 1; qloc[1] = 0; qloc[2] = 0; qloc[3] = 0;
+            qloc[0] = 1;
+            for (int r = 0; r < 3; r++) {
+              qloc[1 + r] = m->jnt_axis[3*j + r] * (0.5 * qp[0]) + 0;
+            }
           } else {
-            ostNum s = (ostNum)sin(0.5 * (double)qp[0]);
-            qloc[0] = (ostNum)cos(0.5 * (double)qp[0]);
+            ostNum s = sin(0.5 * qp[0]);
+            qloc[0] = cos(0.5 * qp[0]);
             for (int r = 0; r < 3; r++) {
               qloc[1 + r] = m->jnt_axis[3*j + r] * s;
             }

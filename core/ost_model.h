@@ -231,4 +231,9 @@ OST_HD void ostu_kinInit(ostKin* k, void* buf, ostSizes s) {
 }
 #endif
 
+// C++ with dual numbers (ost_dual.h): the layout twin of the double model and its conversion
+#if defined(__cplusplus) && defined(OST_NUM_TYPE) && defined(OSTRICH_CORE_OST_DUAL_H_)
+#include "ost_dual.h"
+#endif
+
 #endif  // OSTRICH_CORE_OST_MODEL_H_

@@ -231,7 +231,7 @@ OST_HD void osti_nativeStart(const ostModel* m, ostKin* k, ostWorld* w, const os
   if (xfrc_applied) {
     for (int b = 1; b < m->s.nbody; b++) {
       const ostNum* x = xfrc_applied + 6 * b;
-      if (!(x[0] || x[1] || x[2] || x[3] || x[4] || x[5])) {
+      if (x[0] == 0 && x[1] == 0 && x[2] == 0 && x[3] == 0 && x[4] == 0 && x[5] == 0) {
         continue;
       }
       osti_jac(m, k, k->jac, k->jac + 3 * nv, k->xipos + 3 * b, b);

@@ -36,8 +36,10 @@ typedef struct ostSolverOptions_ {  // per-step solver settings (see ostOptions 
   ostNum reg;                       // relative compliance delta of contact and sticking rows
 } ostSolverOptions;
 
+#ifndef OST_NUM_TYPE  // a substituted scalar type never crosses the boundary
 OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 4 * sizeof(ostNum),
                   "ostSolverOptions crosses the gcc/nvcc boundary: keep it unpadded");
+#endif
 
 // One world's arrays. The X-macro is the single description of the layout: it drives the size
 // of the allocation and the pointer setup (type, name, rows, cols).
@@ -76,6 +78,7 @@ typedef struct ostWorld_ {        // one world: sizes and pointers into one allo
   int    nrow_max;                // row capacity
   int    nrow_prev;               // rows of the previous iterate
   int    nrow_warm;               // rows of the last step's result (0: none)
+  int    prev_jac;                // 1 if J_prev holds the base iterate's Jacobians
   ostNum h;                       // timestep (s)
   ostNum lookahead;               // contacts are reported up to this gap (m)
 #define X(type, name, r, c) type* name;
@@ -102,6 +105,7 @@ OST_HD void ostu_worldInit(ostWorld* w, void* buf, int nv, int nrow_max, ostNum 
   w->nrow_max = nrow_max;
   w->nrow_prev = 0;
   w->nrow_warm = 0;
+  w->prev_jac = 0;
   w->h = h;
   w->lookahead = 0;
 #define X(type, name, r, c)                                         \
@@ -401,6 +405,7 @@ OST_HD int osti_newtonDirection(ostWorld* w, const ostSolverOptions* opt) {
     w->J_prev[k] = w->J[k];
   }
   w->nrow_prev = nrow;
+  w->prev_jac = 1;
   return it;
 }
 
@@ -448,6 +453,7 @@ OST_HD void osti_startStep(ostWorld* w, const ostNum* u, int warm) {
     w->dqvel[j] = 0;
   }
   w->nrow_prev = warm ? w->nrow_warm : 0;
+  w->prev_jac = 0;  // the last step's rows carry multipliers, not this step's Jacobians
   for (int i = 0; i < w->nrow_prev; i++) {
     w->rows_prev[i] = w->rows_warm[i];
     w->lambda_prev[i] = w->lambda_warm[i];
@@ -467,7 +473,7 @@ OST_HD void osti_matchPrevious(ostWorld* w) {
   int nv = w->nv;
   osti_matchRows(w->lambda, w->rows, w->nrow, w->lambda_trial, w->rows_prev, w->nrow_prev,
                  w->used);
-  for (int j = 0; j < w->nrow_prev; j++) {
+  for (int j = 0; j < w->nrow_prev && w->prev_jac; j++) {
     const ostRow* p = w->rows_prev + j;
     if (w->used[j] || (p->type != OST_ROW_CONTACT && p->type != OST_ROW_LIMIT)) {
       continue;

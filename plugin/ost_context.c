@@ -30,6 +30,7 @@ static void freeContext(ostContext* c) {
   free(c->native_block);
   free(c->native_key);
   free(c->kin_buf);
+  ost_adjointFree(c);
   free(c);
 }
 

@@ -12,6 +12,24 @@
 #include "ost_solver.h"
 #include "ostrich.h"
 
+typedef struct ostRecordHead_ {   // header of one recorded substep (ost_adjoint.c)
+  double h;                       // its step size (s)
+  int    nrow;                    // rows of its solution
+  int    step_end;                // 1 if it is the last substep of an ost_step
+} ostRecordHead;
+
+typedef struct ostRecord_ {       // pointers into one record block (ost_recordView)
+  ostRecordHead* head;
+  mjtNum* qpos_prev;              // q-                                            (nq)
+  mjtNum* qvel_prev;              // u-                                            (nv)
+  mjtNum* qvel;                   // u+                                            (nv)
+  mjtNum* ctrl;                   // controls                                      (nu)
+  mjtNum* qfrc_applied;           // applied forces                                (nv)
+  mjtNum* xfrc_applied;           // applied wrenches                       (nbody x 6)
+  mjtNum* lambda;                 // multipliers of the solution             (nrow_max)
+  ostRow* rows;                   // rows of the solution                    (nrow_max)
+} ostRecord;
+
 typedef struct ostContext_ {
   const mjData*  d;               // the mjData this context serves
   const void*    d_buffer;        // d->buffer when created (detects pointer reuse)
@@ -38,6 +56,15 @@ typedef struct ostContext_ {
   void*          kin_buf;         // its kinematics' single allocation
   ostKin         kin;             // native kinematics, pointers into kin_buf
   ostWorld       world;           // core solver state, pointers into world_buf
+  void*          rec_buf;         // records of the last step's substeps (ost_adjoint.c)
+  int            rec_n;           // records in rec_buf
+  int            rec_cap;         // capacity of rec_buf in records
+  void*          adj_work;        // dual-number work block of the adjoint
+  const void*    adj_model_block; // native_block it was made for
+  int*           adj_fric_geom;   // per packed pair: geoms whose friction it takes (2 each)
+  mjtNum*        adj_fric_weight; // their weights
+  mjtNum*        adj_scratch;     // adjoint scratch: Jacobian, LU factor, vectors
+  size_t         adj_scratch_cap; // its capacity in doubles
   struct ostContext_* next;       // registry list
 } ostContext;
 
@@ -70,5 +97,37 @@ int ost_packModel(const mjModel* m, int ncon_max, ostModel* om, void** block, ch
 
 // classify actuator i: 1 implicit servo, 0 explicit force, -1 unsupported (message in err)
 int ost_actuatorKind(const mjModel* m, int i, char* err, int err_sz);
+
+// pack the native model for the context if it is not current (needed by the native provider
+// and by every gradient); OST_ERR_MODEL names what native geometry cannot represent
+int ost_nativeReady(ostContext* c, const mjModel* m);
+
+// options, model check and private model of a context before a step (ost_step.c)
+int ost_prepareContext(ostContext* c, const mjModel* m);
+
+// a context's warm-start state (validity, last rows and forces, end state): its size in
+// bytes, and copies out of and into a context, so that a recomputed step starts as the
+// recorded one did
+size_t ost_warmSize(const ostContext* c);
+void ost_warmSave(const ostContext* c, void* buf);
+void ost_warmLoad(ostContext* c, const void* buf);
+
+// bytes of one substep record for a row capacity nrow_max
+size_t ost_recordSize(const mjModel* m, int nrow_max);
+
+// pointers into the record block rec
+void ost_recordView(const mjModel* m, int nrow_max, void* rec, ostRecord* r);
+
+// append the substep advance() just committed to the context's records
+int ost_recordSubstep(ostContext* c, const mjModel* m, const mjData* d, mjtNum h);
+
+// backward pass over n records: (gq, gu) at their end in, at their start out; gctrl (nu) and
+// gtheta accumulate (either may be NULL)
+int ost_recordsBackward(ostContext* c, const mjModel* m, void* recs, int n,
+                        const ostGradOptions* go, mjtNum* gq, mjtNum* gu, mjtNum* gctrl,
+                        mjtNum* gtheta);
+
+// the adjoint's resources of a context (called when the context is freed)
+void ost_adjointFree(ostContext* c);
 
 #endif  // OSTRICH_PLUGIN_OST_INTERNAL_H_

@@ -53,7 +53,7 @@ static int nativeCurrent(const ostContext* c, const mjModel* m) {
 // Users may edit mjModel fields between steps, so the model is repacked whenever the user's
 // model differs from the one last packed (a byte comparison: packing a 12,500-face terrain
 // mesh and its grid costs about 1.2 ms, the comparison a small fraction of that)
-static int prepareNative(ostContext* c, const mjModel* m) {
+int ost_nativeReady(ostContext* c, const mjModel* m) {
   if (nativeCurrent(c, m)) {
     return OST_OK;
   }
@@ -91,7 +91,7 @@ static int prepareNative(ostContext* c, const mjModel* m) {
 
 // prepare the context for a step: options, model check, private model whose margins are
 // widened by the look-ahead distance (gaps unchanged, so look-ahead contacts get efc rows)
-static int prepare(ostContext* c, const mjModel* m) {
+int ost_prepareContext(ostContext* c, const mjModel* m) {
   int status;
   c->err[0] = 0;
   if (!c->opt_user && (status = ost_readOptions(m, &c->opt, c->err, sizeof(c->err)))) {
@@ -120,7 +120,7 @@ static int prepare(ostContext* c, const mjModel* m) {
     mo->jnt_margin[i] += la;
   }
   if (c->opt.geometry == OST_GEOMETRY_NATIVE) {
-    return prepareNative(c, m);
+    return ost_nativeReady(c, m);
   }
   for (int g = 0; g < m->ngeom && c->opt.margin > 0; g++) {
     if (m->geom_type[g] == mjGEOM_HFIELD) {
@@ -162,6 +162,7 @@ static void restoreStart(ostContext* c, const mjModel* m, mjData* d) {
 // restore the pre-step state and recompute derived quantities after a failure
 static int abortStep(ostContext* c, const mjModel* m, mjData* d, int status) {
   c->warm_valid = 0;
+  c->rec_n = 0;
   restoreStart(c, m, d);
   d->ncon = d->nefc = d->ne = d->nf = 0;
   mj_fwdPosition(m, d);
@@ -374,6 +375,43 @@ static void publishForces(ostContext* c, const mjModel* m, mjData* d) {
 }
 
 
+// bytes of a context's warm-start state: validity, rows and multipliers of the last result,
+// and the state it ended in
+size_t ost_warmSize(const ostContext* c) {
+  const mjModel* m = c->m;
+  return 2 * sizeof(int) + (1 + m->nq + 2 * (size_t)m->nv) * sizeof(mjtNum)
+         + c->world.nrow_max * (sizeof(ostRow) + sizeof(mjtNum));
+}
+
+
+void ost_warmSave(const ostContext* c, void* buf) {
+  const mjModel* m = c->m;
+  const ostWorld* w = &c->world;
+  int* head = (int*)buf;
+  head[0] = c->warm_valid;
+  head[1] = w->nrow_warm;
+  mjtNum* p = (mjtNum*)(head + 2);
+  memcpy(p, c->state_end, (1 + m->nq + 2 * m->nv) * sizeof(mjtNum));
+  p += 1 + m->nq + 2 * m->nv;
+  memcpy(p, w->lambda_warm, w->nrow_warm * sizeof(mjtNum));
+  memcpy(p + w->nrow_max, w->rows_warm, w->nrow_warm * sizeof(ostRow));
+}
+
+
+void ost_warmLoad(ostContext* c, const void* buf) {
+  const mjModel* m = c->m;
+  ostWorld* w = &c->world;
+  const int* head = (const int*)buf;
+  c->warm_valid = head[0];
+  w->nrow_warm = head[1];
+  const mjtNum* p = (const mjtNum*)(head + 2);
+  memcpy(c->state_end, p, (1 + m->nq + 2 * m->nv) * sizeof(mjtNum));
+  p += 1 + m->nq + 2 * m->nv;
+  memcpy(w->lambda_warm, p, w->nrow_warm * sizeof(mjtNum));
+  memcpy(w->rows_warm, p + w->nrow_max, w->nrow_warm * sizeof(ostRow));
+}
+
+
 int ost_step1(const mjModel* m, mjData* d) {
   if (!m) return -1;
   if (!d) return -2;
@@ -467,6 +505,9 @@ static int advance(ostContext* c, const mjModel* m, mjData* d, mjtNum h, int dep
   memcpy(d->qacc_warmstart, qacc, nv * sizeof(mjtNum));
   d->time += h;
   osti_saveWarm(w);
+  if ((status = ost_recordSubstep(c, m, d, h))) {
+    return status;
+  }
   saveState(m, d, c->state_end);
   c->warm_valid = 1;
   c->stats.substeps++;
@@ -488,13 +529,14 @@ int ost_step2(const mjModel* m, mjData* d) {
     return OST_ERR_MEMORY;
   }
   int status;
-  if ((status = prepare(c, m)) || (status = checkInputs(c, m, d, 1))) {
+  if ((status = ost_prepareContext(c, m)) || (status = checkInputs(c, m, d, 1))) {
     return status;
   }
   mjtNum h = c->opt.timestep > 0 ? c->opt.timestep : m->opt.timestep;
   ostWorld* w = &c->world;
   w->lookahead = c->opt.margin;
   memset(&c->stats, 0, sizeof(c->stats));
+  c->rec_n = 0;
   saveState(m, d, c->state_start);
   if ((status = advance(c, m, d, h, 0, 1))) {
     if (status == OST_ERR_OVERFLOW) {
@@ -503,6 +545,10 @@ int ost_step2(const mjModel* m, mjData* d) {
     return abortStep(c, m, d, status);
   }
   d->solver_iter = c->stats.newton_iter < mjNSOLVER ? c->stats.newton_iter : mjNSOLVER;
+  ostRecord last;
+  ost_recordView(m, w->nrow_max, (char*)c->rec_buf
+                 + (c->rec_n - 1) * ost_recordSize(m, w->nrow_max), &last);
+  last.head->step_end = 1;
 
   // publish: MuJoCo's own contacts and rows at q+ (look-ahead model: contacts within the
   // look-ahead distance are listed, separated ones with zero force), forces = lambda

@@ -156,6 +156,92 @@ void ost_detach(const mjData* d);
 void ost_deleteData(mjData* d);
 
 
+//---------------------------------- Gradients -----------------------------------------------------
+// Exact gradients of Ostrich steps by the implicit function theorem at each step's solution
+// (DESIGN.md section 2). Conventions, as mjd_transitionFD: a qpos cotangent or perturbation is a
+// tangent vector of nv entries (mj_integratePos / mj_differentiatePos: ball and free rotations
+// in the local frame), qvel and ctrl are plain vectors. Gradients need a model that the native
+// geometry provider can represent (ost_checkNative): the derivatives of kinematics, dynamics and
+// contact geometry come from core's native code in forward-mode dual numbers, whichever provider
+// ran the forward step.
+
+// Physical parameters theta, one flat vector in this group order (offsets: ost_paramAddress):
+typedef enum ostParam_ {
+  OST_PARAM_FRICTION = 0,         // geom_friction[g][0], sliding friction           (ngeom)
+  OST_PARAM_MASS,                 // body_mass[b] (inertia held fixed)               (nbody)
+  OST_PARAM_DAMPING,              // dof_damping[j]                                  (nv)
+  OST_PARAM_GAIN,                 // actuator_gainprm[i][0]: kp or kv of a servo     (nu)
+  OST_PARAM_BIASPOS,              // actuator_biasprm[i][1] (= -kp of a position servo) (nu)
+  OST_PARAM_BIASVEL,              // actuator_biasprm[i][2] (= -kv of a servo)       (nu)
+  OST_NPARAM                      // number of groups
+} ostParam;
+
+// Length of theta.
+int ost_nparam(const mjModel* m);
+
+// Offset of group g (ostParam) in theta; ost_paramAddress(m, OST_NPARAM) == ost_nparam(m).
+int ost_paramAddress(const mjModel* m, int g);
+
+typedef struct ostGradOptions_ {  // what a backward pass computes
+  int truncate;                   // 1: contact geometry held fixed within a step (no position
+                                  //    pull-back of points, normals, distances), for long
+                                  //    chaotic horizons; 0: complete (default)
+  int params;                     // 1: also accumulate dL/dtheta (costs more)
+} ostGradOptions;
+
+// Default gradient options (complete pull-back, no parameters).
+void ost_defaultGradOptions(ostGradOptions* go);
+
+// Vector-Jacobian product of the last ost_step on d (all its substeps): given gq = dL/dq+
+// (nv, tangent) and gu = dL/du+ (nv), return dL/dq- (nv, tangent), dL/du- (nv), dL/dctrl (nu)
+// and, if go->params and gtheta != NULL, dL/dtheta (ost_nparam, accumulated: += ). Outputs may
+// be NULL. The step must have been taken by ost_step / ost_step2 on (m, d), and d's state not
+// changed since.
+int ost_adjoint(const mjModel* m, const mjData* d, const ostGradOptions* go, const mjtNum* gq,
+                const mjtNum* gu, mjtNum* gq_prev, mjtNum* gu_prev, mjtNum* gctrl,
+                mjtNum* gtheta);
+
+// Dense transition Jacobians of one Ostrich step from d's state, in mjd_transitionFD's layout:
+// A = d x+/d x (2nv x 2nv), B = d x+/d ctrl (2nv x nu), x = (qpos tangent, qvel); either may be
+// NULL. d is left as it was (state, controls, time). Models with activations (na > 0) are refused.
+int ost_transition(const mjModel* m, mjData* d, mjtNum* A, mjtNum* B);
+
+// A tape records a rollout for its backward pass: per step only the state, controls and the
+// converged forces (no Newton or PCR iterates), so the bytes per recorded step do not depend on
+// the iteration budgets. With checkpoint = S > 0 it keeps every S-th step's record only and
+// recomputes a segment's steps during the backward pass (memory / S, compute about x2).
+typedef struct ostTape_ ostTape;
+
+// New empty tape for model m (NULL if allocation fails).
+ostTape* ost_tapeCreate(const mjModel* m, int checkpoint);
+
+// Release a tape (NULL is ignored).
+void ost_tapeDelete(ostTape* t);
+
+// Forget the recorded rollout; keep the allocations.
+void ost_tapeClear(ostTape* t);
+
+// ost_step(m, d) and record the step. The first step after ost_tapeClear fixes the start state.
+int ost_tapeStep(ostTape* t, const mjModel* m, mjData* d);
+
+// Steps recorded since the last ost_tapeClear.
+int ost_tapeSteps(const ostTape* t);
+
+// Bytes the tape holds now (records, checkpoints, scratch).
+size_t ost_tapeBytes(const ostTape* t);
+
+// Backward pass over the recorded rollout of n steps. gq, gu: ((n + 1) x nv) cotangents of the
+// loss with respect to the state after each step, row 0 the start state (NULL = zero). Returns
+// gctrl (n x nu), the gradient of the start state gq0, gu0 (nv each, row 0 of gq, gu included)
+// and, with go->params, gtheta (accumulated). Outputs may be NULL. The error message of a
+// failure is in ost_tapeError.
+int ost_tapeBackward(ostTape* t, const mjModel* m, const ostGradOptions* go, const mjtNum* gq,
+                     const mjtNum* gu, mjtNum* gctrl, mjtNum* gq0, mjtNum* gu0, mjtNum* gtheta);
+
+// Message of the tape's last failure ("" if none).
+const char* ost_tapeError(const ostTape* t);
+
+
 #ifdef __cplusplus
 }
 #endif

@@ -1,0 +1,213 @@
+// ost_adjoint.h: the residual of one Ostrich step as a function of all its inputs, written once
+// for any scalar type, so that plugin/ost_adjoint_dual.cc can differentiate it exactly with
+// forward-mode dual numbers (ostNum = ostDual<N>, core/ost_dual.h) and the implicit function
+// theorem gives the step's gradients (DESIGN.md section 2; paper section III-D). Mirrors
+// engine_derivative.c's role; also the exponential-map integration of qpos (mj_integratePos)
+// and its first-order inverse, which define the tangent space of ball and free joints.
+//
+// The step's unknowns y = (u, lambda) (u = u+, nv; lambda, nrow) solve R(y; q-, u-, ctrl, theta)
+// = 0 with, for every row kind, the root that osti_evaluate's Newton model drives to zero:
+//   dynamics   Mt (u - u-) - h (f + J(q+)' lambda)                               (eq. 2)
+//   contact    FB(gap + reg k lambda, k lambda) / h,  k = h^2 J_i Mt^-1 J_i'     (eq. 4)
+//   friction   k_f (lambda_f - proj_{|.| <= mu lambda_n}(z)),
+//              z = lambda_f - (J_f u + c_s lambda_f) / k_f                       (eq. 5-7)
+//   servo      alpha (lambda - clamp(pos + b2 J u))                              (eq. 8)
+// with q+ = q- (+) h u. Scaling a row does not move the root, only conditions the Jacobian.
+// Invariant: functions here write only their outputs and the world they are given.
+#ifndef OSTRICH_CORE_OST_ADJOINT_H_
+#define OSTRICH_CORE_OST_ADJOINT_H_
+
+#include <math.h>
+
+#include "ost_constraint.h"
+#include "ost_hd.h"
+#include "ost_kinematics.h"
+#include "ost_model.h"
+#include "ost_solver.h"
+#include "ost_util_dense.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+// q <- q (x) exp(v) for a unit quaternion q and a rotation vector v in q's local frame
+// (mju_quatIntegrate with scale 1). Below a rotation of 1e-6 rad the exponential is its series
+// 1 - |v|^2/8, (v/2)(1 - |v|^2/24): the value agrees to 1e-24 and the first derivative at v = 0
+// stays finite (|v| is not differentiable there), which the dual numbers need.
+OST_HD void osti_quatIntegrate(ostNum q[4], const ostNum v[3]) {
+  ostNum t2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+  ostNum dq[4];
+  if (t2 > 1e-12) {
+    ostNum t = sqrt(t2);
+    ostNum s = sin(0.5 * t) / t;
+    dq[0] = cos(0.5 * t);
+    dq[1] = s * v[0];
+    dq[2] = s * v[1];
+    dq[3] = s * v[2];
+  } else {
+    ostNum s = 0.5 * (1 - t2 / 24);
+    dq[0] = 1 - t2 / 8;
+    dq[1] = s * v[0];
+    dq[2] = s * v[1];
+    dq[3] = s * v[2];
+  }
+  osti_kinQuatMul(q, q, dq);
+  osti_kinNormalize4(q);
+}
+
+
+// qpos <- qpos (+) h qvel (mj_integratePos): slide and hinge add, ball and free rotations
+// integrate the local angular velocity by the exponential map, free positions add h v
+OST_HD void osti_integratePos(const ostModel* m, ostNum* qpos, const ostNum* qvel, ostNum h) {
+  for (int j = 0; j < m->s.njnt; j++) {
+    ostNum* q = qpos + m->jnt_qposadr[j];
+    const ostNum* v = qvel + m->jnt_dofadr[j];
+    int type = m->jnt_type[j];
+    if (type == OST_JNT_FREE) {
+      for (int i = 0; i < 3; i++) {
+        q[i] += h * v[i];
+      }
+      q += 3;
+      v += 3;
+    }
+    if (type == OST_JNT_FREE || type == OST_JNT_BALL) {
+      ostNum w[3] = {h * v[0], h * v[1], h * v[2]};
+      osti_quatIntegrate(q, w);
+    } else {
+      q[0] += h * v[0];
+    }
+  }
+}
+
+
+// the tangent vector dq (nv) with qpos = qref (+) dq to first order, for qpos near qref: slide,
+// hinge and free positions subtract; rotations give 2 vec(conj(qref) qpos) (the local rotation
+// vector for small angles). Exact in its first derivative at qpos = qref, which is where the
+// dual numbers evaluate it (mj_differentiatePos there has a 0/0 in its axis).
+OST_HD void osti_tangentLinear(const ostModel* m, ostNum* dq, const ostNum* qpos,
+                               const ostNum* qref) {
+  for (int j = 0; j < m->s.njnt; j++) {
+    int a = m->jnt_qposadr[j], v = m->jnt_dofadr[j], type = m->jnt_type[j];
+    if (type == OST_JNT_FREE) {
+      for (int i = 0; i < 3; i++) {
+        dq[v + i] = qpos[a + i] - qref[a + i];
+      }
+      a += 3;
+      v += 3;
+    }
+    if (type == OST_JNT_FREE || type == OST_JNT_BALL) {
+      ostNum conj[4] = {qref[a], -qref[a + 1], -qref[a + 2], -qref[a + 3]}, d[4];
+      osti_kinQuatMul(d, conj, qpos + a);
+      dq[v] = 2 * d[1];
+      dq[v + 1] = 2 * d[2];
+      dq[v + 2] = 2 * d[3];
+    } else {
+      dq[v] = qpos[a] - qref[a];
+    }
+  }
+}
+
+
+// R (nv + nrow) of the step at (u, lambda), see the file comment. The world holds the step's
+// start (w->M = Mt unfactored, w->qfrc_explicit = f, w->qvel_prev = u-, w->h) and the rows and
+// J at q+ = q- (+) h u. Factors w->M in place and uses w->tmp, w->diag, w->Ju.
+OST_HD void osti_stepResidual(ostWorld* w, const ostNum* u, const ostNum* lambda, ostNum reg,
+                              ostNum fb_eps, ostNum* R) {
+  int nv = w->nv, nrow = w->nrow;
+  ostNum h = w->h;
+
+  // dynamics: Mt (u - u-) - h (f + J' lambda)
+  ostNum* t = w->tmp;
+  for (int j = 0; j < nv; j++) {
+    t[j] = u[j] - w->qvel_prev[j];
+  }
+  ostu_mulMatVec(R, w->M, t, nv, nv);
+  ostu_mulMatTVec(t, w->J, lambda, nrow, nv);
+  for (int j = 0; j < nv; j++) {
+    R[j] -= h * (w->qfrc_explicit[j] + t[j]);
+  }
+
+  // Jacobi diagonal J_i Mt^-1 J_i' (the effective-mass scales of the rows) and J_i u
+  osti_factorMass(w);
+  for (int i = 0; i < nrow; i++) {
+    osti_rowDiag(w, i);
+    w->Ju[i] = ostu_dot(w->J + (size_t)i * nv, u, nv);
+  }
+
+  ostNum* r = R + nv;
+  for (int i = 0; i < nrow; i++) {
+    const ostRow* row = w->rows + i;
+    ostNum lam = lambda[i];
+    switch (row->type) {
+    case OST_ROW_EQUALITY:
+      r[i] = (row->pos + row->alpha * lam) / h;
+      break;
+    case OST_ROW_LIMIT:
+    case OST_ROW_CONTACT: {
+      ostNum k = h * h * w->diag[i], fa, fb;
+      r[i] = osti_fb(row->pos + reg * k * lam, k * lam, fb_eps, &fa, &fb) / h;
+      break;
+    }
+    case OST_ROW_FRICTION: {
+      // both tangents at the first friction row of the contact (Alart-Curnier, as
+      // osti_frictionRows): G = lambda_f - proj(z), scaled by k_f to a velocity
+      if (i == 0 || w->rows[i - 1].type != OST_ROW_CONTACT) {
+        break;
+      }
+      int n = i - 1, b = i + 1;
+      ostNum kf = h * 0.5 * (w->diag[i] + w->diag[b]), cs = reg * kf;
+      ostNum bound = w->rows[n].mu * (lambda[n] > 0 ? lambda[n] : 0);
+      ostNum z1 = lam - (w->Ju[i] + cs * lam) / kf;
+      ostNum z2 = lambda[b] - (w->Ju[b] + cs * lambda[b]) / kf;
+      ostNum zn2 = z1 * z1 + z2 * z2;
+      ostNum scl = 1;
+      if (zn2 > bound * bound) {
+        scl = bound / sqrt(zn2);
+      }
+      r[i] = kf * (lam - scl * z1);
+      r[b] = kf * (lambda[b] - scl * z2);
+      break;
+    }
+    case OST_ROW_SERVO: {
+      ostNum F = row->pos + row->mu * w->Ju[i];
+      F = F < row->lo ? row->lo : (F > row->hi ? row->hi : F);
+      r[i] = row->alpha * (lam - F);
+      break;
+    }
+    default:
+      r[i] = lam;
+      break;
+    }
+  }
+}
+
+
+// contact geometry held fixed within the step (the truncated pull-back): the rows of contacts
+// keep J and frames but lose their derivatives, and each gap moves only to first order,
+// gap + J_n dq+ with dq+ the tangent of q+ (nv). For the dual instantiation; a no-op on values.
+OST_HD void osti_truncateContacts(ostWorld* w, const ostNum* dq) {
+  int nv = w->nv;
+  for (int i = 0; i < w->nrow; i++) {
+    ostRow* row = w->rows + i;
+    if (row->type != OST_ROW_CONTACT && row->type != OST_ROW_FRICTION) {
+      continue;
+    }
+    ostNum* J = w->J + (size_t)i * nv;
+    for (int j = 0; j < nv; j++) {
+      J[j] = (double)J[j];
+    }
+    if (row->type == OST_ROW_CONTACT) {
+      ostNum gap = (double)row->pos;
+      for (int j = 0; j < nv; j++) {
+        gap += J[j] * dq[j];
+      }
+      row->pos = gap;
+    }
+  }
+}
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif  // OSTRICH_CORE_OST_ADJOINT_H_

@@ -1,0 +1,412 @@
+// ost_adjoint.c: gradients of Ostrich steps by the implicit function theorem (DESIGN.md
+// section 2; paper section III-D; mirrors engine_derivative.c). Each committed substep is
+// recorded at commit (ost_recordSubstep: state, controls and the converged forces, nothing of
+// the Newton or PCR iterates). Its backward pass takes the exact Jacobian of the step's
+// residual R(y; xi) = 0, y = (u+, lambda), xi = (dq-, u-, ctrl, theta), and outputs
+// O = (dq+, u+) from ost_adjoint_dual.cc and solves
+//   K' w = -O_y' g,     dL/dxi = O_xi' g + R_xi' w,     K = dR/dy,
+// where g = (dL/dq+, dL/du+). K is not symmetric once the position pull-back, friction's
+// dependence on the normal force and the exponential map enter, so it is factored by LU
+// (its size is nv + rows, tens to a few hundred).
+// Invariant: the forward state of a context (warm start, options) is never changed here.
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "ost_adjoint.h"
+#include "ost_internal.h"
+
+//---------------------------------- Parameters ----------------------------------------------------
+
+int ost_paramAddress(const mjModel* m, int g) {
+  int size[OST_NPARAM] = {m->ngeom, m->nbody, m->nv, m->nu, m->nu, m->nu};
+  int adr = 0;
+  for (int i = 0; i < g && i < OST_NPARAM; i++) {
+    adr += size[i];
+  }
+  return adr;
+}
+
+
+int ost_nparam(const mjModel* m) {
+  return ost_paramAddress(m, OST_NPARAM);
+}
+
+
+void ost_defaultGradOptions(ostGradOptions* go) {
+  go->truncate = 0;
+  go->params = 0;
+}
+
+
+//---------------------------------- Records -------------------------------------------------------
+
+// bytes of one record: a header, then q- (nq), u- (nv), u+ (nv), ctrl (nu), qfrc_applied (nv),
+// xfrc_applied (6 nbody), lambda (nrow_max) and rows (nrow_max); independent of the budgets
+size_t ost_recordSize(const mjModel* m, int nrow_max) {
+  size_t nnum = m->nq + 3 * (size_t)m->nv + m->nu + 6 * (size_t)m->nbody + nrow_max;
+  return sizeof(ostRecordHead) + nnum * sizeof(mjtNum) + nrow_max * sizeof(ostRow);
+}
+
+
+// pointers into the record block rec
+void ost_recordView(const mjModel* m, int nrow_max, void* rec, ostRecord* r) {
+  r->head = (ostRecordHead*)rec;
+  mjtNum* p = (mjtNum*)((char*)rec + sizeof(ostRecordHead));
+  r->qpos_prev = p;     p += m->nq;
+  r->qvel_prev = p;     p += m->nv;
+  r->qvel = p;          p += m->nv;
+  r->ctrl = p;          p += m->nu;
+  r->qfrc_applied = p;  p += m->nv;
+  r->xfrc_applied = p;  p += 6 * m->nbody;
+  r->lambda = p;        p += nrow_max;
+  r->rows = (ostRow*)p;
+}
+
+
+// append the substep just committed by advance() (ost_step.c) to the context's records
+int ost_recordSubstep(ostContext* c, const mjModel* m, const mjData* d, mjtNum h) {
+  ostWorld* w = &c->world;
+  size_t sz = ost_recordSize(m, w->nrow_max);
+  if (c->rec_n == c->rec_cap) {
+    int cap = c->rec_cap ? 2 * c->rec_cap : 2;
+    void* buf = realloc(c->rec_buf, cap * sz);
+    if (!buf) {
+      return ost_fail(c, OST_ERR_MEMORY, "cannot record the step for its gradient");
+    }
+    c->rec_buf = buf;
+    c->rec_cap = cap;
+  }
+  ostRecord r;
+  ost_recordView(m, w->nrow_max, (char*)c->rec_buf + c->rec_n * sz, &r);
+  r.head->h = h;
+  r.head->nrow = w->nrow;
+  r.head->step_end = 0;
+  memcpy(r.qpos_prev, c->qpos_prev, m->nq * sizeof(mjtNum));
+  memcpy(r.qvel_prev, w->qvel_prev, m->nv * sizeof(mjtNum));
+  memcpy(r.qvel, w->qvel, m->nv * sizeof(mjtNum));
+  memcpy(r.ctrl, d->ctrl, m->nu * sizeof(mjtNum));
+  memcpy(r.qfrc_applied, d->qfrc_applied, m->nv * sizeof(mjtNum));
+  memcpy(r.xfrc_applied, d->xfrc_applied, 6 * m->nbody * sizeof(mjtNum));
+  memcpy(r.lambda, w->lambda, w->nrow * sizeof(mjtNum));
+  memcpy(r.rows, w->rows, w->nrow * sizeof(ostRow));
+  c->rec_n++;
+  return OST_OK;
+}
+
+
+void ost_adjointFree(ostContext* c) {
+  free(c->rec_buf);
+  ostd_workFree(c->adj_work);
+  free(c->adj_fric_geom);
+  free(c->adj_fric_weight);
+  free(c->adj_scratch);
+}
+
+
+//---------------------------------- One substep ---------------------------------------------------
+
+// the dual work, scratch matrices and friction map for the context's packed native model
+static int adjointPrepare(ostContext* c, const mjModel* m) {
+  int status = ost_nativeReady(c, m);
+  if (status) {
+    return status;
+  }
+  if (c->adj_work && c->adj_model_block == c->native_block) {
+    return OST_OK;
+  }
+  ostd_workFree(c->adj_work);
+  free(c->adj_fric_geom);
+  free(c->adj_fric_weight);
+  c->adj_work = ostd_workCreate(&c->native, c->world.nrow_max);
+  int npair = c->native.s.npair > 0 ? c->native.s.npair : 1;
+  c->adj_fric_geom = (int*)malloc(2 * npair * sizeof(int));
+  c->adj_fric_weight = (mjtNum*)malloc(2 * npair * sizeof(mjtNum));
+  if (!c->adj_work || !c->adj_fric_geom || !c->adj_fric_weight) {
+    return ost_fail(c, OST_ERR_MEMORY, "cannot allocate the adjoint's work space");
+  }
+  c->adj_model_block = c->native_block;
+
+  // friction of a dynamic pair is max(mu1, mu2) (MuJoCo's mixing); an explicit <pair> has its
+  // own coefficient, which no geom parameter moves
+  for (int p = 0; p < c->native.s.npair; p++) {
+    int g1 = c->native.pair_geom1[p], g2 = c->native.pair_geom2[p], expl = 0;
+    for (int i = 0; i < m->npair; i++) {
+      expl |= (m->pair_geom1[i] == g1 && m->pair_geom2[i] == g2)
+              || (m->pair_geom1[i] == g2 && m->pair_geom2[i] == g1);
+    }
+    mjtNum f1 = m->geom_friction[3 * g1], f2 = m->geom_friction[3 * g2];
+    c->adj_fric_geom[2 * p] = expl ? -1 : g1;
+    c->adj_fric_geom[2 * p + 1] = expl ? -1 : g2;
+    c->adj_fric_weight[2 * p] = f1 > f2 ? 1 : (f1 < f2 ? 0 : 0.5);
+    c->adj_fric_weight[2 * p + 1] = 1 - c->adj_fric_weight[2 * p];
+  }
+  return OST_OK;
+}
+
+
+// make the scratch hold at least n doubles (c->adj_scratch)
+static int adjointScratch(ostContext* c, size_t n) {
+  if (n <= c->adj_scratch_cap) {
+    return OST_OK;
+  }
+  free(c->adj_scratch);
+  c->adj_scratch = (mjtNum*)malloc(n * sizeof(mjtNum));
+  c->adj_scratch_cap = c->adj_scratch ? n : 0;
+  return c->adj_scratch ? OST_OK : ost_fail(c, OST_ERR_MEMORY, "cannot allocate adjoint scratch");
+}
+
+
+// the exact Jacobian G of record r into the scratch; *ny = nv + rows, K = G[0:ny, 0:ny] is
+// LU-factored in place when factor is set (pivots after G)
+static int recordJacobian(ostContext* c, const mjModel* m, const ostRecord* r, int truncate,
+                          int params, int* ny, int** piv) {
+  int nv = m->nv, nparam = params ? ost_nparam(m) : 0, status;
+  int adr[OST_NPARAM + 1];
+  for (int g = 0; g <= OST_NPARAM; g++) {
+    adr[g] = ost_paramAddress(m, g);
+  }
+  ostdStep s = {&c->native, r->qpos_prev, r->qvel_prev, r->qvel, r->ctrl, r->qfrc_applied,
+                r->xfrc_applied, r->rows, r->lambda, r->head->nrow, truncate, r->head->h,
+                c->opt.margin, c->opt.regularization, c->opt.fb_eps, nparam, adr,
+                c->adj_fric_geom, c->adj_fric_weight};
+  double resid;
+  for (;;) {
+    size_t cap = c->adj_scratch_cap > (size_t)nv ? c->adj_scratch_cap : 0;
+    int rc = ostd_stepJacobian(c->adj_work, &s, c->adj_scratch, cap / 2, ny, &resid);
+    if (rc == 0) {
+      break;
+    }
+    if (rc == 2) {
+      return ost_fail(c, OST_ERR_OVERFLOW, "row capacity exceeded re-evaluating a step's rows");
+    }
+    size_t ncol = *ny + 2 * nv + m->nu + nparam;
+    if ((status = adjointScratch(c, 2 * (size_t)(*ny + 2 * nv) * ncol + 4 * ncol))) {
+      return status;
+    }
+  }
+  size_t ncol = *ny + 2 * nv + m->nu + nparam;
+  mjtNum* G = c->adj_scratch;
+  mjtNum* K = G + (size_t)(*ny + 2 * nv) * ncol;
+  *piv = (int*)(K + (size_t)*ny * *ny);  // ny ints in the room of ny doubles
+  for (int i = 0; i < *ny; i++) {
+    memcpy(K + (size_t)i * *ny, G + (size_t)i * ncol, *ny * sizeof(mjtNum));
+  }
+  if (ostu_luFactor(K, *piv, *ny)) {
+    return ost_fail(c, OST_ERR_NUMERIC, "the step's Jacobian is singular (residual %.3g)", resid);
+  }
+  return OST_OK;
+}
+
+
+// backward pass of one record: g = (gq, gu) at its q+, u+ in; gq, gu at its q-, u- out (in
+// place, nv each); gctrl (nu) and gtheta accumulate
+static int recordBackward(ostContext* c, const mjModel* m, const ostRecord* r,
+                          const ostGradOptions* go, mjtNum* gq, mjtNum* gu, mjtNum* gctrl,
+                          mjtNum* gtheta) {
+  int nv = m->nv, nu = m->nu, ny, *piv, status;
+  int nparam = go->params && gtheta ? ost_nparam(m) : 0;
+  if ((status = recordJacobian(c, m, r, go->truncate, nparam > 0, &ny, &piv))) {
+    return status;
+  }
+  int nxi = 2 * nv + nu + nparam, ncol = ny + nxi;
+  const mjtNum* G = c->adj_scratch;
+  const mjtNum* K = G + (size_t)(ny + 2 * nv) * ncol;
+  mjtNum* w = (mjtNum*)K + (size_t)ny * ny + ny;
+  mjtNum* gxi = w + ny;
+
+  // w = -K'^-1 O_y' g
+  for (int j = 0; j < ny; j++) {
+    mjtNum s = 0;
+    for (int i = 0; i < nv; i++) {
+      s += G[(size_t)(ny + i) * ncol + j] * gq[i] + G[(size_t)(ny + nv + i) * ncol + j] * gu[i];
+    }
+    w[j] = -s;
+  }
+  ostu_luSolveT(w, K, piv, w, ny);
+
+  // dL/dxi = O_xi' g + R_xi' w
+  for (int j = 0; j < nxi; j++) {
+    int col = ny + j;
+    mjtNum s = 0;
+    for (int i = 0; i < nv; i++) {
+      s += G[(size_t)(ny + i) * ncol + col] * gq[i] + G[(size_t)(ny + nv + i) * ncol + col] * gu[i];
+    }
+    for (int i = 0; i < ny; i++) {
+      s += G[(size_t)i * ncol + col] * w[i];
+    }
+    gxi[j] = s;
+  }
+  memcpy(gq, gxi, nv * sizeof(mjtNum));
+  memcpy(gu, gxi + nv, nv * sizeof(mjtNum));
+  for (int i = 0; gctrl && i < nu; i++) {
+    gctrl[i] += gxi[2 * nv + i];
+  }
+  for (int i = 0; i < nparam; i++) {
+    gtheta[i] += gxi[2 * nv + nu + i];
+  }
+  return OST_OK;
+}
+
+
+// backward pass over records [0, n) of a block (one step's substeps, or a tape's segment):
+// gq, gu (nv) hold the cotangents at the end on entry and at the start on return
+int ost_recordsBackward(ostContext* c, const mjModel* m, void* recs, int n,
+                        const ostGradOptions* go, mjtNum* gq, mjtNum* gu, mjtNum* gctrl,
+                        mjtNum* gtheta) {
+  int status = adjointPrepare(c, m);
+  size_t sz = ost_recordSize(m, c->world.nrow_max);
+  for (int k = n - 1; k >= 0 && !status; k--) {
+    ostRecord r;
+    ost_recordView(m, c->world.nrow_max, (char*)recs + k * sz, &r);
+    status = recordBackward(c, m, &r, go, gq, gu, gctrl, gtheta);
+  }
+  return status;
+}
+
+
+//---------------------------------- Public entry points -------------------------------------------
+
+int ost_adjoint(const mjModel* m, const mjData* d, const ostGradOptions* go, const mjtNum* gq,
+                const mjtNum* gu, mjtNum* gq_prev, mjtNum* gu_prev, mjtNum* gctrl,
+                mjtNum* gtheta) {
+  if (!m) return -1;
+  if (!d) return -2;
+  ostContext* c = ost_findContext(d);
+  if (!c || c->rec_n == 0 || !c->warm_valid) {
+    return c ? ost_fail(c, OST_ERR_INPUT, "ost_adjoint: no Ostrich step on this mjData") : -2;
+  }
+  ostGradOptions def;
+  if (!go) {
+    ost_defaultGradOptions(&def);
+    go = &def;
+  }
+  int nv = m->nv;
+  mjtNum* g = (mjtNum*)calloc(2 * nv + 1, sizeof(mjtNum));
+  if (!g) {
+    return ost_fail(c, OST_ERR_MEMORY, "cannot allocate");
+  }
+  for (int i = 0; i < nv; i++) {
+    g[i] = gq ? gq[i] : 0;
+    g[nv + i] = gu ? gu[i] : 0;
+  }
+  if (gctrl) {
+    memset(gctrl, 0, m->nu * sizeof(mjtNum));
+  }
+  int status = ost_recordsBackward(c, m, c->rec_buf, c->rec_n, go, g, g + nv, gctrl, gtheta);
+  if (!status) {
+    if (gq_prev) memcpy(gq_prev, g, nv * sizeof(mjtNum));
+    if (gu_prev) memcpy(gu_prev, g + nv, nv * sizeof(mjtNum));
+  }
+  free(g);
+  return status;
+}
+
+
+// dense Jacobians of the records [0, n): x+ = (dq+, u+) by x- = (dq-, u-) into A (2nv x 2nv)
+// and by ctrl into B (2nv x nu), chaining substeps: A = A_n..A_1, B = sum A_n..A_{k+1} B_k
+static int recordsTransition(ostContext* c, const mjModel* m, void* recs, int n, mjtNum* A,
+                             mjtNum* B) {
+  int nv = m->nv, nu = m->nu, nx = 2 * nv, status;
+  if ((status = adjointPrepare(c, m))) {
+    return status;
+  }
+  size_t sz = ost_recordSize(m, c->world.nrow_max);
+  mjtNum* T = (mjtNum*)calloc((size_t)nx * (nx + nu) * 3, sizeof(mjtNum));
+  if (!T) {
+    return ost_fail(c, OST_ERR_MEMORY, "cannot allocate");
+  }
+  mjtNum* acc = T;                        // running [A B] (nx x (nx + nu))
+  mjtNum* step = T + nx * (nx + nu);      // this substep's [A_k B_k]
+  mjtNum* tmp = step + nx * (nx + nu);
+  for (int i = 0; i < nx; i++) {
+    acc[i * (nx + nu) + i] = 1;
+  }
+  for (int k = 0; k < n && !status; k++) {
+    ostRecord r;
+    ost_recordView(m, c->world.nrow_max, (char*)recs + k * sz, &r);
+    int ny, *piv;
+    if ((status = recordJacobian(c, m, &r, 0, 0, &ny, &piv))) {
+      break;
+    }
+    int ncol = ny + nx + nu;
+    const mjtNum* G = c->adj_scratch;
+    const mjtNum* K = G + (size_t)(ny + nx) * ncol;
+    mjtNum* col = (mjtNum*)K + (size_t)ny * ny + ny;
+    // dy/dxi_j = -K^-1 R_xi_j, dO/dxi_j = O_xi_j + O_y dy/dxi_j
+    for (int j = 0; j < nx + nu; j++) {
+      for (int i = 0; i < ny; i++) {
+        col[i] = -G[(size_t)i * ncol + ny + j];
+      }
+      ostu_luSolve(col, K, piv, col, ny);
+      for (int i = 0; i < nx; i++) {
+        mjtNum s = G[(size_t)(ny + i) * ncol + ny + j];
+        for (int l = 0; l < ny; l++) {
+          s += G[(size_t)(ny + i) * ncol + l] * col[l];
+        }
+        step[i * (nx + nu) + j] = s;
+      }
+    }
+    // acc <- [A_k acc_A, A_k acc_B + B_k]
+    for (int i = 0; i < nx; i++) {
+      for (int j = 0; j < nx + nu; j++) {
+        mjtNum s = j >= nx ? step[i * (nx + nu) + j] : 0;
+        for (int l = 0; l < nx; l++) {
+          s += step[i * (nx + nu) + l] * acc[l * (nx + nu) + j];
+        }
+        tmp[i * (nx + nu) + j] = s;
+      }
+    }
+    memcpy(acc, tmp, (size_t)nx * (nx + nu) * sizeof(mjtNum));
+  }
+  for (int i = 0; i < nx && !status; i++) {
+    for (int j = 0; j < nx + nu; j++) {
+      if (j < nx && A) {
+        A[i * nx + j] = acc[i * (nx + nu) + j];
+      } else if (j >= nx && B) {
+        B[i * nu + j - nx] = acc[i * (nx + nu) + j];
+      }
+    }
+  }
+  free(T);
+  return status;
+}
+
+
+int ost_transition(const mjModel* m, mjData* d, mjtNum* A, mjtNum* B) {
+  if (!m) return -1;
+  if (!d) return -2;
+  ostContext* c = ost_context(m, d);
+  if (!c) {
+    return OST_ERR_MEMORY;
+  }
+  if (m->na > 0) {
+    return ost_fail(c, OST_ERR_MODEL, "ost_transition: models with activations (na = %d) are "
+                    "not supported", m->na);
+  }
+  // step from a copy of the state, differentiate the recorded substeps, restore everything
+  int nstate = 1 + m->nq + 2 * m->nv;
+  mjtNum* save = (mjtNum*)malloc((nstate + m->nu) * sizeof(mjtNum));
+  if (!save) {
+    return ost_fail(c, OST_ERR_MEMORY, "cannot allocate");
+  }
+  save[0] = d->time;
+  memcpy(save + 1, d->qpos, m->nq * sizeof(mjtNum));
+  memcpy(save + 1 + m->nq, d->qvel, m->nv * sizeof(mjtNum));
+  memcpy(save + 1 + m->nq + m->nv, d->qacc_warmstart, m->nv * sizeof(mjtNum));
+  memcpy(save + nstate, d->ctrl, m->nu * sizeof(mjtNum));
+  int status = ost_step(m, d);
+  if (!status) {
+    status = recordsTransition(c, m, c->rec_buf, c->rec_n, A, B);
+  }
+  d->time = save[0];
+  memcpy(d->qpos, save + 1, m->nq * sizeof(mjtNum));
+  memcpy(d->qvel, save + 1 + m->nq, m->nv * sizeof(mjtNum));
+  memcpy(d->qacc_warmstart, save + 1 + m->nq + m->nv, m->nv * sizeof(mjtNum));
+  memcpy(d->ctrl, save + nstate, m->nu * sizeof(mjtNum));
+  mj_forward(m, d);
+  c->warm_valid = 0;
+  c->rec_n = 0;
+  free(save);
+  return status;
+}
