@@ -242,7 +242,13 @@ static int recordBackward(ostContext* c, const mjModel* m, const ostRecord* r,
   for (int i = 0; gctrl && i < nu; i++) {
     gctrl[i] += gxi[2 * nv + i];
   }
+  // MuJoCo reads biasprm only for an affine bias (a motor's is unused): no derivative there
+  int bias1 = ost_paramAddress(m, OST_PARAM_BIASPOS), bias2 = ost_paramAddress(m, OST_PARAM_BIASVEL);
   for (int i = 0; i < nparam; i++) {
+    int act = i >= bias2 ? i - bias2 : i - bias1;
+    if (i >= bias1 && act < nu && m->actuator_biastype[act] != mjBIAS_AFFINE) {
+      continue;
+    }
     gtheta[i] += gxi[2 * nv + nu + i];
   }
   return OST_OK;

@@ -1,216 +1,28 @@
 // ost_cli.c: the `ostrich` command-line tool. Subcommands are dispatched from one table
 // (kCommands); `sim` loads an MJCF model, steps it with Ostrich (ost_step) or stock MuJoCo
-// (mj_step), optionally writes the trajectory as CSV, and prints a JSON summary.
+// (mj_step), optionally writes the trajectory as CSV, and prints a JSON summary; `check`
+// compares native geometry with MuJoCo's. `synth` (ost_cli_synth.c) and `gradcheck`
+// (ost_cli_gradcheck.c) live in their own files; the shared helpers in ost_cli_util.c.
 // Mirrors MuJoCo's sample programs (testspeed.cc, basic.cc), without rendering.
 //
-// Invariant: stdout carries exactly one JSON line per simulation and nothing else; every
-// diagnostic and progress line goes to stderr and starts with "ostrich:" (MuJoCo warnings with
-// "mujoco warning:"). Exit codes: 0 success, 1 the simulation failed (NaN, failed step, MuJoCo
-// error), 2 bad usage or unusable input (options, model file, XML, model refused by Ostrich).
+// Invariant: stdout carries exactly one JSON line per run and nothing else; every diagnostic
+// and progress line goes to stderr and starts with "ostrich:" (MuJoCo warnings with
+// "mujoco warning:"). Exit codes: 0 success, 1 the run failed (NaN, failed step, MuJoCo error,
+// a check over tolerance), 2 bad usage or unusable input (options, model file, XML, model
+// refused by Ostrich).
 #define _POSIX_C_SOURCE 200809L
 
 #include <errno.h>
 #include <math.h>
-#include <stdarg.h>
 #include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #include <mujoco/mujoco.h>
 
+#include "ost_cli_util.h"
 #include "ostrich.h"
-
-enum {
-  CLI_OK    = 0,                  // success
-  CLI_FAIL  = 1,                  // the simulation failed
-  CLI_USAGE = 2                   // bad usage or unusable input
-};
-
-#define CLI_MSG_SZ 1024           // size of message buffers
-
-
-//---------------------------------- Messages ------------------------------------------------------
-
-static char mj_error_text[CLI_MSG_SZ];  // first MuJoCo error of this process ("" if none)
-
-
-// Turn line breaks into spaces and drop trailing spaces (MuJoCo's XML errors span lines).
-static void cli_oneLine(char* msg) {
-  for (char* c = msg; *c; c++) {
-    if (*c == '\n' || *c == '\r') {
-      *c = ' ';
-    }
-  }
-  for (size_t n = strlen(msg); n > 0 && msg[n - 1] == ' '; n--) {
-    msg[n - 1] = 0;
-  }
-}
-
-
-// Print "ostrich: <message>" on stderr, as one line.
-static void cli_error(const char* fmt, ...) {
-  char msg[2 * CLI_MSG_SZ];
-  va_list args;
-  va_start(args, fmt);
-  vsnprintf(msg, sizeof(msg), fmt, args);
-  va_end(args);
-  cli_oneLine(msg);
-  fprintf(stderr, "ostrich: %s\n", msg);
-}
-
-
-// MuJoCo error handler: record the first message and return (no longjmp, no exit); callers
-// check cli_mujocoError after each MuJoCo call that can fail.
-static void cli_onMujocoError(const char* msg) {
-  if (!mj_error_text[0]) {
-    snprintf(mj_error_text, sizeof(mj_error_text), "%s", msg);
-  }
-}
-
-
-// MuJoCo warning handler: print on stderr, one line.
-static void cli_onMujocoWarning(const char* msg) {
-  char line[CLI_MSG_SZ];
-  snprintf(line, sizeof(line), "%s", msg);
-  cli_oneLine(line);
-  fprintf(stderr, "mujoco warning: %s\n", line);
-}
-
-
-// Message of the first MuJoCo error of this process, NULL if none.
-static const char* cli_mujocoError(void) {
-  return mj_error_text[0] ? mj_error_text : NULL;
-}
-
-
-//---------------------------------- Parsing -------------------------------------------------------
-
-// Parse a finite number that fills the whole string; return 0 on success.
-static int cli_parseNumber(const char* s, double* value) {
-  char* end = NULL;
-  errno = 0;
-  double v = strtod(s, &end);
-  if (end == s || *end || errno == ERANGE || !isfinite(v)) {
-    return 1;
-  }
-  *value = v;
-  return 0;
-}
-
-
-// Parse a non-negative decimal integer that fills the whole string; return 0 on success.
-static int cli_parseCount(const char* s, long* value) {
-  char* end = NULL;
-  errno = 0;
-  long v = strtol(s, &end, 10);
-  if (end == s || *end || errno == ERANGE || v < 0 || v > 2147483647L) {
-    return 1;
-  }
-  *value = v;
-  return 0;
-}
-
-
-// Parse a comma list of exactly n numbers into values; return 0 on success, else print why.
-static int cli_parseList(const char* option, const char* s, mjtNum* values, int n) {
-  // an empty list has no items; items are separated by commas
-  int count = 0;
-  int more = (*s != 0);
-  while (more) {
-    char item[64];
-    double v;
-    int len = (int)strcspn(s, ",");
-    snprintf(item, sizeof(item), "%.*s", len, s);
-    if (len >= (int)sizeof(item) || cli_parseNumber(item, &v)) {
-      cli_error("%s: '%.*s' is not a number", option, len, s);
-      return 1;
-    }
-    if (count < n) {
-      values[count] = v;
-    }
-    count++;
-    more = (s[len] == ',');
-    s += len + 1;
-  }
-  if (count != n) {
-    cli_error("%s: got %d values, the model has nu = %d", option, count, n);
-    return 1;
-  }
-  return 0;
-}
-
-
-//---------------------------------- Option table --------------------------------------------------
-
-typedef enum cliArg_ {            // kind of value an option takes
-  CLI_ARG_STRING,                 // any string (const char*)
-  CLI_ARG_POSITIVE,               // finite number > 0 (double)
-  CLI_ARG_COUNT                   // integer >= 0 (long)
-} cliArg;
-
-typedef struct cliOption_ {       // one command-line option with a value
-  const char* name;               // "--name"
-  cliArg      kind;               // value kind
-  size_t      offset;             // offset of the value field in the argument struct
-  const char* metavar;            // placeholder in the usage text
-  const char* help;               // usage text; '\n' starts a new indented line
-} cliOption;
-
-
-// Print an option table as aligned usage lines.
-static void cli_printOptions(FILE* f, const cliOption* options, int noption) {
-  for (int i = 0; i < noption; i++) {
-    char left[64];
-    snprintf(left, sizeof(left), "%s %s", options[i].name, options[i].metavar);
-    fprintf(f, "  %-26s ", left);
-    for (const char* c = options[i].help; *c; c++) {
-      fputc(*c, f);
-      if (*c == '\n') {
-        fprintf(f, "  %-26s ", "");
-      }
-    }
-    fputc('\n', f);
-  }
-}
-
-
-// Store the value text of option o into the argument struct args; return 0 on success.
-static int cli_storeOption(const cliOption* o, const char* text, void* args) {
-  char* field = (char*)args + o->offset;
-  if (o->kind == CLI_ARG_STRING) {
-    *(const char**)field = text;
-    return 0;
-  }
-  if (o->kind == CLI_ARG_POSITIVE) {
-    double v;
-    if (cli_parseNumber(text, &v) || v <= 0) {
-      cli_error("%s: '%s' is not a positive number", o->name, text);
-      return 1;
-    }
-    *(double*)field = v;
-    return 0;
-  }
-  long v;
-  if (cli_parseCount(text, &v)) {
-    cli_error("%s: '%s' is not a non-negative integer", o->name, text);
-    return 1;
-  }
-  *(long*)field = v;
-  return 0;
-}
-
-
-// Find an option by name, NULL if unknown.
-static const cliOption* cli_findOption(const cliOption* options, int noption, const char* name) {
-  for (int i = 0; i < noption; i++) {
-    if (!strcmp(options[i].name, name)) {
-      return options + i;
-    }
-  }
-  return NULL;
-}
 
 
 //---------------------------------- sim: arguments ------------------------------------------------
@@ -285,38 +97,7 @@ static void sim_usage(FILE* f) {
 // Parse the arguments of `ostrich sim`; return 0 on success, else print why.
 static int sim_parseArgs(int argc, char** argv, simArgs* a) {
   *a = (simArgs){.engine = "ostrich", .steps = -1, .newton = -1, .pcr = -1};
-  for (int i = 0; i < argc; i++) {
-    const char* arg = argv[i];
-    if (!strcmp(arg, "--help") || !strcmp(arg, "-h")) {
-      a->help = 1;
-      return 0;
-    }
-
-    // the positional model path
-    if (arg[0] != '-' || !arg[1]) {
-      if (a->model) {
-        cli_error("sim: unexpected argument '%s' (the model is '%s')", arg, a->model);
-        return 1;
-      }
-      a->model = arg;
-      continue;
-    }
-
-    // an option and its value
-    const cliOption* o = cli_findOption(kSimOptions, kSimNumOptions, arg);
-    if (!o) {
-      cli_error("sim: unknown option '%s' (see ostrich sim --help)", arg);
-      return 1;
-    }
-    if (i + 1 >= argc) {
-      cli_error("%s: missing value (%s)", arg, o->metavar);
-      return 1;
-    }
-    if (cli_storeOption(o, argv[++i], a)) {
-      return 1;
-    }
-  }
-  return 0;
+  return cli_parseArgs("sim", argc, argv, kSimOptions, kSimNumOptions, a, &a->model, &a->help);
 }
 
 
@@ -364,88 +145,11 @@ typedef struct simRun_ {          // one simulation: inputs, state and results
 } simRun;
 
 
-// Load the model; return 0 on success, else print why.
-static int sim_loadModel(const char* path, simRun* r) {
-  char err[CLI_MSG_SZ] = "";
-
-  // a missing file gets its own message (MuJoCo's is vague)
-  FILE* f = fopen(path, "r");
-  if (!f) {
-    cli_error("cannot open model '%s': %s", path, strerror(errno));
-    return 1;
-  }
-  fclose(f);
-
-  // compile; MuJoCo returns NULL and the reason for malformed XML
-  r->m = mj_loadXML(path, NULL, err, sizeof(err));
-  if (!r->m) {
-    const char* why = err[0] ? err : cli_mujocoError();
-    cli_error("cannot load model '%s': %s", path, why ? why : "unknown error");
-    return 1;
-  }
-  if (err[0]) {
-    cli_onMujocoWarning(err);
-  }
-  r->d = mj_makeData(r->m);
-  if (!r->d || cli_mujocoError()) {
-    const char* why = cli_mujocoError();
-    cli_error("cannot allocate mjData for '%s': %s", path, why ? why : "out of memory");
-    return 1;
-  }
-  return 0;
-}
-
-
-// Configure Ostrich: model check, <custom> options, command-line overrides; set r->h.
-static int sim_setupOstrich(const simArgs* a, simRun* r) {
-  char err[CLI_MSG_SZ] = "";
-  ostOptions opt;
-
-  // refuse models with features Ostrich does not model
-  if (ost_checkModel(r->m, err, sizeof(err)) != OST_OK) {
-    cli_error("%s", err);
-    return 1;
-  }
-
-  // options: defaults < model <custom> ostrich/* < command line
-  ost_defaultOptions(&opt);
-  if (ost_readOptions(r->m, &opt, err, sizeof(err)) != OST_OK) {
-    cli_error("%s", err);
-    return 1;
-  }
-  if (a->h > 0) {
-    opt.timestep = a->h;
-  }
-  if (a->newton >= 0) {
-    opt.newton_iter = (int)a->newton;
-  }
-  if (a->pcr >= 0) {
-    opt.pcr_iter = (int)a->pcr;
-  }
-  if (a->geometry) {
-    opt.geometry = strcmp(a->geometry, "native") ? OST_GEOMETRY_MUJOCO : OST_GEOMETRY_NATIVE;
-  }
-  if (opt.geometry == OST_GEOMETRY_NATIVE && ost_checkNative(r->m, err, sizeof(err)) != OST_OK) {
-    cli_error("%s", err);
-    return 1;
-  }
-  int status = ost_setOptions(r->m, r->d, &opt);
-  if (status != OST_OK) {
-    cli_error("options refused (status %d): %s", status, ost_lastError(r->d));
-    return 1;
-  }
-
-  // options timestep 0 means opt.timestep
-  r->h = opt.timestep > 0 ? opt.timestep : r->m->opt.timestep;
-  return 0;
-}
-
-
 // Configure the engine, the step size and the step count; return 0 on success.
 static int sim_setup(const simArgs* a, simRun* r) {
   r->ostrich = !strcmp(a->engine, "ostrich");
   if (r->ostrich) {
-    if (sim_setupOstrich(a, r)) {
+    if (cli_setupOstrich(r->m, r->d, a->h, a->newton, a->pcr, a->geometry, &r->h)) {
       return 1;
     }
   } else {
@@ -477,14 +181,6 @@ static int sim_setup(const simArgs* a, simRun* r) {
 
 //---------------------------------- sim: stepping ------------------------------------------------
 
-// Seconds on the monotonic clock.
-static double cli_now(void) {
-  struct timespec t;
-  clock_gettime(CLOCK_MONOTONIC, &t);
-  return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
-
-
 // Write the CSV header.
 static void sim_writeHeader(const simRun* r) {
   fprintf(r->csv, "time");
@@ -508,27 +204,6 @@ static void sim_writeRow(const simRun* r) {
     fprintf(r->csv, ",%.10g", r->d->qvel[i]);
   }
   fputc('\n', r->csv);
-}
-
-
-// Return 1 if qpos or qvel has a non-finite entry, 2 if MuJoCo found one and reset the state
-// (mj_checkPos/Vel/Acc warn and reset, so the bad values never reach the caller), else 0.
-static int sim_hasNan(const mjModel* m, const mjData* d) {
-  for (int i = 0; i < m->nq; i++) {
-    if (!isfinite(d->qpos[i])) {
-      return 1;
-    }
-  }
-  for (int i = 0; i < m->nv; i++) {
-    if (!isfinite(d->qvel[i])) {
-      return 1;
-    }
-  }
-  if (d->warning[mjWARN_BADQPOS].number || d->warning[mjWARN_BADQVEL].number ||
-      d->warning[mjWARN_BADQACC].number) {
-    return 2;
-  }
-  return 0;
 }
 
 
@@ -581,7 +256,7 @@ static int sim_stepOnce(simRun* r, long k) {
 // Write the CSV row of the state after step k (0-based) and check it; return 1 to stop at a
 // non-finite state (a state that MuJoCo reset is not written), else 0.
 static int sim_record(simRun* r, long k) {
-  int bad = sim_hasNan(r->m, r->d);
+  int bad = cli_hasNan(r->m, r->d);
   if (r->csv && bad != 2) {
     sim_writeRow(r);
   }
@@ -611,8 +286,7 @@ static void sim_progress(const simRun* r, double start, double* last) {
 
 // Run the stepping loop; return CLI_OK or CLI_FAIL.
 static int sim_loop(simRun* r) {
-  const char* quiet = getenv("OSTRICH_QUIET");
-  int progress = !(quiet && quiet[0] && strcmp(quiet, "0"));
+  int progress = cli_progress();
   double start = cli_now(), last = start;
 
   if (r->csv) {
@@ -637,32 +311,6 @@ static int sim_loop(simRun* r) {
 
 
 //---------------------------------- sim: report ---------------------------------------------------
-
-// Print a JSON number (null if not finite).
-static void cli_jsonNumber(FILE* f, double x) {
-  if (isfinite(x)) {
-    fprintf(f, "%.10g", x);
-  } else {
-    fputs("null", f);
-  }
-}
-
-
-// Print a JSON string with escapes.
-static void cli_jsonString(FILE* f, const char* s) {
-  fputc('"', f);
-  for (const unsigned char* c = (const unsigned char*)s; *c; c++) {
-    if (*c == '"' || *c == '\\') {
-      fprintf(f, "\\%c", *c);
-    } else if (*c < 0x20) {
-      fprintf(f, "\\u%04x", *c);
-    } else {
-      fputc(*c, f);
-    }
-  }
-  fputc('"', f);
-}
-
 
 // Print the one-line JSON summary on stdout.
 static void sim_report(const simArgs* a, const simRun* r) {
@@ -717,7 +365,7 @@ static int sim_free(simRun* r) {
 //---------------------------------- sim -----------------------------------------------------------
 
 // `ostrich sim MODEL.xml [options]`
-static int sim_main(int argc, char** argv) {
+int sim_main(int argc, char** argv) {
   simArgs a;
   if (sim_parseArgs(argc, argv, &a)) {
     return CLI_USAGE;
@@ -733,7 +381,7 @@ static int sim_main(int argc, char** argv) {
   // load, configure, step, report
   simRun r = {0};
   int status = CLI_USAGE;
-  if (!sim_loadModel(a.model, &r) && !sim_setup(&a, &r)) {
+  if (!cli_loadModel(a.model, &r.m, &r.d) && !sim_setup(&a, &r)) {
     status = sim_loop(&r);
     sim_report(&a, &r);
   }
@@ -777,41 +425,22 @@ static void check_usage(FILE* f) {
 
 
 // `ostrich check MODEL.xml [--states N] [--seed S]`
-static int check_main(int argc, char** argv) {
+int check_main(int argc, char** argv) {
   checkArgs a = {.states = 100, .seed = 1};
-  for (int i = 0; i < argc; i++) {
-    const char* arg = argv[i];
-    if (!strcmp(arg, "--help") || !strcmp(arg, "-h")) {
-      check_usage(stdout);
-      return CLI_OK;
-    }
-    if (arg[0] != '-' || !arg[1]) {
-      if (a.model) {
-        cli_error("check: unexpected argument '%s'", arg);
-        return CLI_USAGE;
-      }
-      a.model = arg;
-      continue;
-    }
-    const cliOption* o = cli_findOption(kCheckOptions, kCheckNumOptions, arg);
-    if (!o) {
-      cli_error("check: unknown option '%s' (see ostrich check --help)", arg);
-      return CLI_USAGE;
-    }
-    if (i + 1 >= argc) {
-      cli_error("%s: missing value (%s)", arg, o->metavar);
-      return CLI_USAGE;
-    }
-    if (cli_storeOption(o, argv[++i], &a)) {
-      return CLI_USAGE;
-    }
+  if (cli_parseArgs("check", argc, argv, kCheckOptions, kCheckNumOptions, &a, &a.model,
+                    &a.help)) {
+    return CLI_USAGE;
+  }
+  if (a.help) {
+    check_usage(stdout);
+    return CLI_OK;
   }
   if (!a.model) {
     cli_error("check: missing MODEL.xml (see ostrich check --help)");
     return CLI_USAGE;
   }
   simRun r = {0};
-  if (sim_loadModel(a.model, &r)) {
+  if (cli_loadModel(a.model, &r.m, &r.d)) {
     sim_free(&r);
     return CLI_USAGE;
   }
@@ -848,6 +477,9 @@ typedef struct cliCommand_ {      // one subcommand
 static const cliCommand kCommands[] = {
   {"sim", "simulate a model with Ostrich or stock MuJoCo; print a JSON summary", sim_main},
   {"check", "compare native geometry with MuJoCo at random configurations", check_main},
+  {"synth", "control synthesis on the wheeled robot: adjoint or finite differences", synth_main},
+  {"gradcheck", "compare the adjoint gradient of a rollout with finite differences",
+   gradcheck_main},
 };
 
 static const int kNumCommands = (int)(sizeof(kCommands) / sizeof(kCommands[0]));

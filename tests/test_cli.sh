@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
-# test_cli.sh: end-to-end tests of the `ostrich` command-line tool (plugin/ost_cli.c).
+# test_cli.sh: end-to-end tests of the `ostrich` command-line tool (plugin/ost_cli*.c).
 # usage: bash tests/test_cli.sh PATH/TO/ostrich PATH/TO/mjcf_models
 # Checks usage errors (exit 2, one "ostrich:" line on stderr, nothing on stdout), then runs
 # `ostrich sim` on box_plane.xml (both engines) and robot_pallet.xml and checks the JSON line and
-# the CSV. Every check runs; the script exits 1 if any failed.
+# the CSV; `check`; `synth` (self-test, the mujoco engine, then with the gradient API the ostrich
+# engine) and `gradcheck`. Every check runs; the script exits 1 if any failed.
 set -euo pipefail
 
 if [[ $# -ne 2 ]]; then
@@ -115,7 +116,7 @@ PALLET=$MODELS/robot_pallet.xml
 
 run --help
 expect_rc 0 "ostrich --help"
-expect_mentions "ostrich --help lists the sim command" "sim"
+expect_mentions "ostrich --help lists every command" "sim" "check" "synth" "gradcheck"
 run -h
 expect_rc 0 "ostrich -h"
 run sim --help
@@ -221,6 +222,114 @@ run sim "$MODELS/terrain_mesh.xml" --duration 4 --ctrl 3,3,3
 expect_rc 0 "terrain_mesh, ostrich native, h = 0.05, 4 s"
 expect_py "terrain_mesh: drives about 4 m along its line over the mesh" \
   'j["nan"] is False and 3.8 < j["final_qpos"][0] < 4.5 and abs(j["final_qpos"][1]) < 0.3'
+
+
+#---------------------------------- synth and gradcheck: no gradient at run time -----------------
+# Usage errors, help, the loss's derivative self-test, and the mujoco engine (finite differences
+# of mj_step rollouts), none of which calls the gradient API (the binary still links it).
+
+BOXM=$MODELS/robot_box.xml
+SYNTH_OPTIONS=(--trials --iters --seed --lr --engine --grad --fd --eps --csv --plot --model
+               --selftest)
+GRADCHECK_OPTIONS=(--steps --h --seed --wrt --eps --tol --newton --ctrl)
+run synth --help
+expect_rc 0 "ostrich synth --help"
+expect_mentions "ostrich synth --help mentions every option" "${SYNTH_OPTIONS[@]}"
+run gradcheck --help
+expect_rc 0 "ostrich gradcheck --help"
+expect_mentions "ostrich gradcheck --help mentions every option and the normwise error" \
+  "${GRADCHECK_OPTIONS[@]}" "normwise"
+
+expect_usage_error "synth: unknown option" synth --frobnicate
+expect_usage_error "synth: a positional argument" synth "$BOXM"
+expect_usage_error "synth: --trials 0" synth --trials 0 --model "$BOXM"
+expect_usage_error "synth: --iters not an integer" synth --iters 2.5 --model "$BOXM"
+expect_usage_error "synth: --lr not positive" synth --lr -0.3 --model "$BOXM"
+expect_usage_error "synth: unknown engine" synth --engine bullet --model "$BOXM"
+expect_usage_error "synth: unknown --fd" synth --fd sideways --model "$BOXM"
+expect_usage_error "synth: unknown --grad" synth --grad exact --model "$BOXM"
+expect_usage_error "synth: missing model file" synth --model "$tmp/no_such_model.xml"
+expect_usage_error "synth: a model without a free joint and actuators" synth --model "$BOX" \
+  --engine mujoco
+expect_usage_error "gradcheck: missing model argument" gradcheck
+expect_usage_error "gradcheck: unknown option" gradcheck "$BOX" --frobnicate 1
+expect_usage_error "gradcheck: unknown --wrt" gradcheck "$BOX" --wrt everything
+expect_usage_error "gradcheck: --steps 0" gradcheck "$BOX" --steps 0
+expect_usage_error "gradcheck: --eps 0" gradcheck "$BOX" --eps 0
+expect_usage_error "gradcheck: --ctrl with the wrong count" gradcheck "$PALLET" --ctrl 1,2
+expect_usage_error "gradcheck: malformed XML" gradcheck "$tmp/broken.xml"
+run gradcheck "$tmp/eq.xml"
+expect_rc 2 "gradcheck refuses a model native cannot represent"
+if grep -q "couple" "$tmp/err"; then
+  pass "gradcheck's refusal names the equality"
+else
+  fail "gradcheck's refusal names the equality"
+fi
+
+run synth --selftest --model "$BOXM"
+expect_rc 0 "synth --selftest: heading, state cotangents and knot map against differences"
+expect_py "synth --selftest: every error below 1e-6" \
+  'j["ok"] is True and j["heading"] < 1e-6 and j["state_cotangent"] < 1e-6 and
+   j["knot_gradient"] < 1e-6'
+
+# one iteration of the mujoco engine: 1 + 30 rollouts of 3000 steps (about a second)
+SUMMARY_KEYS='["engine","trials","successes","success_rate","median_final_error",
+               "median_final_speed","median_warm_iter_ms","total_s"]'
+OSTRICH_QUIET=1 run synth --engine mujoco --trials 1 --iters 1 --model "$BOXM" \
+  --csv "$tmp/sm.csv" --plot "$tmp/sm.png"
+expect_rc 0 "synth --engine mujoco, 1 trial, 1 iteration"
+expect_py "synth mujoco: JSON summary keys, 3000 steps of 2 ms, forward differences" \
+  "all(k in j for k in $SUMMARY_KEYS) and j['engine'] == 'mujoco' and j['steps'] == 3000 and
+   j['trials'] == 1 and 'forward' in j['gradient'] and j['failed_trials'] == 0"
+expect_py "synth mujoco: one CSV row, the robot drove towards the target (x > 2 m)" \
+  'len(rows) == 2 and rows[0] == ["engine", "trial", "iter", "loss", "pos_err", "speed",
+   "heading_err", "time_ms", "x", "y"] and rows[1][0] == "mujoco" and float(rows[1][8]) > 2' \
+  "$tmp/sm.csv"
+expect_py "synth mujoco: trajectory CSV with 61 samples (0 to 6 s)" \
+  'len(rows) == 62 and float(rows[-1][3]) == 6.0' "$tmp/sm_traj.csv"
+if [[ -s $tmp/sm.png ]] && head -c 8 "$tmp/sm.png" | grep -q PNG; then
+  pass "synth mujoco: wrote a PNG"
+else
+  fail "synth mujoco: expected a PNG at $tmp/sm.png"
+fi
+
+
+#---------------------------------- NEEDS THE GRADIENT API (ost_tape*) ----------------------------
+# gradcheck on smooth models (a hinge chain; position servos at h = 0.1 s: ctrl and servo
+# parameters) must agree with central differences; an impossible --tol fails (exit 1, JSON
+# still printed); synth's ostrich engine runs (adjoint through ost_tapeBackward), alone and next
+# to the mujoco engine.
+
+run gradcheck "$MODELS/pendulum_chain.xml" --steps 10
+expect_rc 0 "gradcheck pendulum_chain: adjoint equals central differences"
+expect_py "gradcheck pendulum_chain: ok, every group below 1e-6, 16 parameters compared" \
+  'j["ok"] is True and max(j["qpos"], j["qvel"], j["ctrl"], j["params"]) < 1e-6 and
+   j["n_params"] == 16 and j["params_nonzero"] > 0'
+run gradcheck "$MODELS/arm_position_servo.xml" --ctrl 0.1,0.2,0.3
+expect_rc 0 "gradcheck arm_position_servo (h = 0.1 s, ctrl and servo gains)"
+expect_py "gradcheck arm_position_servo: ok, 30 controls compared" \
+  'j["ok"] is True and j["n_ctrl"] == 30 and j["ctrl"] < 1e-6'
+run gradcheck "$MODELS/pendulum_chain.xml" --wrt qvel --tol 1e-15
+expect_rc 1 "gradcheck with an impossible --tol fails"
+expect_py "gradcheck --tol 1e-15: JSON printed with ok false, only qvel compared" \
+  'j["ok"] is False and j["qvel"] is not None and j["qpos"] is None and j["params"] is None'
+
+OSTRICH_QUIET=1 run synth --trials 1 --iters 3 --model "$BOXM" --csv "$tmp/so.csv" \
+  --plot "$tmp/so.png"
+expect_rc 0 "synth --engine ostrich, 1 trial, 3 iterations"
+expect_py "synth ostrich: 60 steps of 0.1 s, adjoint gradients, 3 CSV rows" \
+  "all(k in j for k in $SUMMARY_KEYS) and j['engine'] == 'ostrich' and j['steps'] == 60 and
+   j['h'] == 0.1 and 'adjoint' in j['gradient'] and len(rows) == 4" "$tmp/so.csv"
+if [[ -s $tmp/so.png ]] && head -c 8 "$tmp/so.png" | grep -q PNG; then
+  pass "synth ostrich: wrote a PNG"
+else
+  fail "synth ostrich: expected a PNG at $tmp/so.png"
+fi
+OSTRICH_QUIET=1 run synth --engine both --trials 1 --iters 2 --model "$BOXM"
+expect_rc 0 "synth --engine both, 1 trial, 2 iterations"
+expect_py "synth both: a summary per engine and the ratio of warm iteration times" \
+  "j['engine'] == 'both' and all(k in j[e] for e in ('ostrich', 'mujoco') for k in $SUMMARY_KEYS)
+   and j['warm_iter_ratio'] > 0"
 
 
 #---------------------------------- summary -------------------------------------------------------

@@ -1,0 +1,159 @@
+// ost_cli_util.h: helpers shared by the subcommands of the `ostrich` command-line tool
+// (ost_cli.c dispatches; ost_cli_synth.c, ost_cli_gradcheck.c): messages and MuJoCo's error
+// handlers, number and option-table parsing, JSON printing, the clock, a seeded random stream,
+// model loading and Ostrich's option set-up. Mirrors the shared part of MuJoCo's sample programs.
+//
+// Invariant: every helper that rejects its input prints exactly one "ostrich: ..." line on stderr
+// and returns nonzero; none writes to stdout (each subcommand prints its one JSON line itself),
+// and none exits.
+#ifndef OSTRICH_PLUGIN_OST_CLI_UTIL_H_
+#define OSTRICH_PLUGIN_OST_CLI_UTIL_H_
+
+#include <stddef.h>
+#include <stdio.h>
+
+#include <mujoco/mujoco.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+enum {
+  CLI_OK    = 0,                  // success
+  CLI_FAIL  = 1,                  // the run failed (simulation, check or output)
+  CLI_USAGE = 2                   // bad usage or unusable input
+};
+
+#define CLI_MSG_SZ 1024           // size of message buffers
+
+
+//---------------------------------- Subcommands ---------------------------------------------------
+
+// `ostrich sim` and `ostrich check` (ost_cli.c); argv excludes the subcommand name.
+int sim_main(int argc, char** argv);
+int check_main(int argc, char** argv);
+
+// `ostrich synth`: control synthesis on the wheeled robot (ost_cli_synth.c).
+int synth_main(int argc, char** argv);
+
+// `ostrich gradcheck`: adjoint gradients against finite differences (ost_cli_gradcheck.c).
+int gradcheck_main(int argc, char** argv);
+
+
+//---------------------------------- Messages ------------------------------------------------------
+
+// Turn line breaks into spaces and drop trailing spaces (MuJoCo's XML errors span lines).
+void cli_oneLine(char* msg);
+
+// Print "ostrich: <message>" on stderr, as one line.
+void cli_error(const char* fmt, ...) __attribute__((format(printf, 1, 2)));
+
+// MuJoCo error handler: record the first message and return (no longjmp, no exit); callers
+// check cli_mujocoError after each MuJoCo call that can fail. Installed by main.
+void cli_onMujocoError(const char* msg);
+
+// MuJoCo warning handler: print on stderr as "mujoco warning: ...", one line. Installed by main.
+void cli_onMujocoWarning(const char* msg);
+
+// Message of the first MuJoCo error of this process, NULL if none.
+const char* cli_mujocoError(void);
+
+// 1 unless the environment sets OSTRICH_QUIET to a value other than "" or "0".
+int cli_progress(void);
+
+
+//---------------------------------- Parsing -------------------------------------------------------
+
+// Parse a finite number that fills the whole string; return 0 on success.
+int cli_parseNumber(const char* s, double* value);
+
+// Parse a non-negative decimal integer that fills the whole string; return 0 on success.
+int cli_parseCount(const char* s, long* value);
+
+// Parse a comma list of exactly n numbers (n = nu) into values; return 0 on success, else print
+// why, naming option.
+int cli_parseList(const char* option, const char* s, mjtNum* values, int n);
+
+
+//---------------------------------- Option table --------------------------------------------------
+
+typedef enum cliArg_ {            // kind of value an option takes
+  CLI_ARG_STRING,                 // any string (const char*)
+  CLI_ARG_POSITIVE,               // finite number > 0 (double)
+  CLI_ARG_COUNT,                  // integer >= 0 (long)
+  CLI_ARG_FLAG                    // no value; the int field is set to 1
+} cliArg;
+
+typedef struct cliOption_ {       // one command-line option
+  const char* name;               // "--name"
+  cliArg      kind;               // value kind
+  size_t      offset;             // offset of the value field in the argument struct
+  const char* metavar;            // placeholder in the usage text ("" for a flag)
+  const char* help;               // usage text; '\n' starts a new indented line
+} cliOption;
+
+// Print an option table as aligned usage lines.
+void cli_printOptions(FILE* f, const cliOption* options, int noption);
+
+// Print the usage line of -h, --help (after an option table).
+void cli_printHelpOption(FILE* f);
+
+// Find an option by name, NULL if unknown.
+const cliOption* cli_findOption(const cliOption* options, int noption, const char* name);
+
+// Store the value text of option o into the argument struct args; return 0 on success.
+int cli_storeOption(const cliOption* o, const char* text, void* args);
+
+// Parse the arguments of `ostrich COMMAND` against an option table into args. positional
+// receives the one positional argument (the model path); NULL: the command takes none. On -h
+// or --help, set *help and stop. Return 0 on success, else print why and return 1.
+int cli_parseArgs(const char* command, int argc, char** argv, const cliOption* options,
+                  int noption, void* args, const char** positional, int* help);
+
+
+//---------------------------------- JSON and time -------------------------------------------------
+
+// Print a JSON number (%.10g; null if not finite).
+void cli_jsonNumber(FILE* f, double x);
+
+// Print a JSON string with escapes.
+void cli_jsonString(FILE* f, const char* s);
+
+// Seconds on the monotonic clock.
+double cli_now(void);
+
+
+//---------------------------------- Random stream -------------------------------------------------
+
+typedef struct cliRng_ {          // splitmix64 stream: the same numbers on every platform
+  unsigned long long state;       // advanced by every draw
+} cliRng;
+
+// Start a stream from a seed.
+void cli_rngSeed(cliRng* rng, unsigned long long seed);
+
+// Uniform draw in [lo, hi).
+double cli_uniform(cliRng* rng, double lo, double hi);
+
+
+//---------------------------------- Models --------------------------------------------------------
+
+// Load an MJCF model and make its mjData; return 0 on success, else print why (missing file,
+// malformed XML, MuJoCo error) and return 1. *m and *d are NULL or valid either way.
+int cli_loadModel(const char* path, mjModel** m, mjData** d);
+
+// Configure Ostrich on (m, d): model check, <custom> ostrich/* options, then overrides: h > 0
+// (timestep), newton >= 0, pcr >= 0, geometry "mujoco" | "native" (NULL: the model's). Sets
+// *h_out to the step size. Return 0 on success, else print why and return 1.
+int cli_setupOstrich(const mjModel* m, mjData* d, double h, long newton, long pcr,
+                     const char* geometry, double* h_out);
+
+// Return 1 if qpos or qvel has a non-finite entry, 2 if MuJoCo found one and reset the state
+// (mj_checkPos/Vel/Acc warn and reset, so the bad values never reach the caller), else 0.
+int cli_hasNan(const mjModel* m, const mjData* d);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif  // OSTRICH_PLUGIN_OST_CLI_UTIL_H_
