@@ -83,6 +83,7 @@
 #define SYNTH_ADAM_B1      0.9    // Adam's first-moment decay
 #define SYNTH_ADAM_B2      0.999  // Adam's second-moment decay
 #define SYNTH_ADAM_EPS     1e-8   // Adam's denominator guard
+#define SYNTH_MAX_BAD      3      // failed iterates in a row that end a trial
 
 
 //---------------------------------- Arguments -----------------------------------------------------
@@ -107,7 +108,7 @@ static const cliOption kSynthOptions[] = {
   {"--trials", CLI_ARG_COUNT, offsetof(synthArgs, trials), "N",
    "random tasks, >= 1 (default 10)"},
   {"--iters", CLI_ARG_COUNT, offsetof(synthArgs, iters), "K",
-   "Adam iterations (rollouts with a gradient) per trial, >= 1 (default 50)"},
+   "Adam iterations (rollouts with a gradient) per trial (default 50)"},
   {"--seed", CLI_ARG_COUNT, offsetof(synthArgs, seed), "S",
    "seed of the one random stream of all tasks (default 1)"},
   {"--lr", CLI_ARG_POSITIVE, offsetof(synthArgs, lr), "LR",
@@ -757,7 +758,6 @@ static void synth_step(const synthEngine* e, const double* prev, double lr, cons
 // last good iterate's step at half the step size (the rest of the trial keeps the smaller step);
 // the trial ends at a failure of its first iterate, after SYNTH_MAX_BAD failures in a row, or
 // at SYNTH_FAILED. Return 0, or 1 if the trial ended early.
-#define SYNTH_MAX_BAD 3
 static int synth_trial(synthEngine* e, const synthArgs* a, const synthTask* task, int trial,
                        synthResult* r) {
   int bad = 0, nvar = e->nvar, S = e->nsample, progress = cli_progress();
