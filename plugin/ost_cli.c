@@ -21,6 +21,7 @@
 
 #include <mujoco/mujoco.h>
 
+#include "compare.h"
 #include "ost_cli_util.h"
 #include "ostrich.h"
 
@@ -480,6 +481,8 @@ static const cliCommand kCommands[] = {
   {"synth", "control synthesis on the wheeled robot: adjoint or finite differences", synth_main},
   {"gradcheck", "compare the adjoint gradient of a rollout with finite differences",
    gradcheck_main},
+  {"compare", "A/B against stock MuJoCo: timestep sweeps, replay, identify, hard cases",
+   compare_main},
 };
 
 static const int kNumCommands = (int)(sizeof(kCommands) / sizeof(kCommands[0]));
