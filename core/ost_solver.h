@@ -1,7 +1,9 @@
 // ost_solver.h: the per-world non-smooth Newton step of Ostrich (DESIGN.md section 1; paper
 // section III-C). Mirrors engine_solver.c (mj_solNewton): residual evaluation at an iterate,
 // the Schur-complement operator applied matrix-free, preconditioned conjugate residual (PCR)
-// with a Jacobi preconditioner, and the Newton update with projection.
+// with a Jacobi preconditioner, and the Newton update with projection. Where a sliding contact
+// couples its friction force mu lambda_n to its normal force, the Newton system is not symmetric
+// and is solved by GMRES with the same operator and preconditioner (osti_gmres).
 //
 // Unknowns: u = u+ (nv) and lambda (nrow). Backward Euler in generalized coordinates:
 //   q+ = q- (+) h u+,   Mt (u+ - u-) = h (f + J(q+)' lambda),   Mt = M(q-) + h D     (eq. 1-2)
@@ -41,6 +43,9 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 4 * sizeof(ostNu
                   "ostSolverOptions crosses the gcc/nvcc boundary: keep it unpadded");
 #endif
 
+// restart length of GMRES, the Krylov solver of Newton systems with sliding friction (below)
+#define OST_KRYLOV 32
+
 // One world's arrays. The X-macro is the single description of the layout: it drives the size
 // of the allocation and the pointer setup (type, name, rows, cols).
 #define OST_WORLD_ARRAYS(X)                                                                     \
@@ -70,6 +75,8 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 4 * sizeof(ostNu
   X(ostNum,        c,             nrow_max, 1)   /* compliance of the linearized row       */   \
   X(ostNum,        rho,           nrow_max, 1)   /* residual of the linearized row         */   \
   X(ostNum,        pcr,           nrow_max, 6)   /* PCR vectors b r z p Az Ap              */   \
+  X(ostNum,        krylov,        nrow_max, OST_KRYLOV + 1) /* GMRES basis                  */   \
+  X(ostNum,        hess,          OST_KRYLOV + 1, OST_KRYLOV + 4) /* Hessenberg, rotations */   \
   X(unsigned char, used,          nrow_max, 1)   /* matching scratch                       */
 
 typedef struct ostWorld_ {        // one world: sizes and pointers into one allocation
@@ -362,7 +369,147 @@ OST_HD int osti_pcr(ostWorld* w, ostNum* x, const ostNum* b, int maxit, ostNum r
 }
 
 
-// the Newton direction at the evaluated iterate: solve the Schur system by PCR and
+// 1 if the evaluated iterate has a sliding contact that carries normal force: its friction force
+// along the slip, mu lambda_n, then moves with lambda_n and the Newton system is not symmetric
+OST_HD int osti_hasSlidingCoupling(const ostWorld* w) {
+  for (int i = 0; i + 2 < w->nrow; i++) {
+    if (w->rows[i].type == OST_ROW_CONTACT && w->W[i] != 0 && w->lambda[i] > 0) {
+      return 1;
+    }
+  }
+  return 0;
+}
+
+
+// y = A x plus the coupling of sliding friction: the row along the slip of a sliding contact
+// linearizes G_par = lambda_par - mu lambda_n (osti_frictionRows) completely, c (dlambda_par -
+// mu dlambda_n) + J du = -rho, so A gets -(c / h) mu in that row's normal column. Without it the
+// normal force is lagged by one iterate, and Newton stalls or cycles when normal loads and
+// sliding friction move together (a skid-steered robot turning: merit stuck at 1e-2 m/s).
+OST_HD void osti_newtonApply(ostWorld* w, ostNum* OST_RESTRICT y, const ostNum* x) {
+  osti_schurApply(w, y, x);
+  for (int i = 0; i + 2 < w->nrow; i++) {
+    if (w->rows[i].type == OST_ROW_CONTACT && w->W[i] != 0 && w->lambda[i] > 0) {
+      y[i + 1] -= w->c[i + 1] / w->h * w->rows[i].mu * x[i];
+    }
+  }
+}
+
+
+// apply the Givens rotation (cs, sn) to the pair (a, b)
+OST_HD void osti_givens(ostNum* a, ostNum* b, ostNum cs, ostNum sn) {
+  ostNum t = cs * *a + sn * *b;
+  *b = -sn * *a + cs * *b;
+  *a = t;
+}
+
+
+// restarted GMRES(OST_KRYLOV) for the non-symmetric Newton system (osti_newtonApply) x = b,
+// left-preconditioned by the Jacobi diagonal P = diag(A)^-1 of osti_pcr: it minimizes |P (b - A
+// x)| (Saad, Iterative Methods for Sparse Linear Systems, alg. 9.4). Left, because a sliding
+// row's coupling entry -(c/h) mu is as large as its diagonal c/h (c ~ 1e12 k_f): P A scales that
+// row to dlambda_par - mu dlambda_n, while A P would carry 1e12-sized entries. x starts at 0;
+// returns the iterations used
+OST_HD int osti_gmres(ostWorld* w, ostNum* x, const ostNum* b, int maxit, ostNum rtol) {
+  int n = w->nrow, ld = w->nrow_max;
+  const int hc = OST_KRYLOV + 4;  // row length of hess: H (OST_KRYLOV), then cs, sn, g, y
+  ostNum* V = w->krylov;          // basis vectors V_j = V + j ld
+  ostNum* H = w->hess;            // H_ij = H[i hc + j]
+  ostNum* r = w->pcr + ld;        // scratch: preconditioned residual
+#define OST_PRECOND(i) (1 / (w->diag[i] + w->c[i] / w->h))
+#define OST_CS(j) H[(j) * hc + OST_KRYLOV]
+#define OST_SN(j) H[(j) * hc + OST_KRYLOV + 1]
+#define OST_G(j) H[(j) * hc + OST_KRYLOV + 2]
+#define OST_Y(j) H[(j) * hc + OST_KRYLOV + 3]
+  for (int i = 0; i < n; i++) {
+    x[i] = 0;
+    r[i] = OST_PRECOND(i) * b[i];
+  }
+  ostNum bnorm = sqrt(ostu_dot(r, r, n));
+  if (n == 0 || bnorm == 0) {
+    return 0;
+  }
+  int it = 0;
+  ostNum beta = bnorm;
+  while (it < maxit) {
+    // Arnoldi from V_0 = r / |r|, with Givens rotations keeping the least-squares residual |g_j|
+    for (int i = 0; i < n; i++) {
+      V[i] = r[i] / beta;
+    }
+    OST_G(0) = beta;
+    int j = 0, done = 0;
+    while (j < OST_KRYLOV && it < maxit) {
+      it++;
+      ostNum* vn = V + (size_t)(j + 1) * ld;
+      osti_newtonApply(w, vn, V + (size_t)j * ld);
+      for (int i = 0; i < n; i++) {
+        vn[i] *= OST_PRECOND(i);
+      }
+      for (int k = 0; k <= j; k++) {  // modified Gram-Schmidt
+        ostNum hkj = ostu_dot(vn, V + (size_t)k * ld, n);
+        H[k * hc + j] = hkj;
+        for (int i = 0; i < n; i++) {
+          vn[i] -= hkj * V[(size_t)k * ld + i];
+        }
+      }
+      ostNum hn = sqrt(ostu_dot(vn, vn, n));
+      for (int i = 0; i < n && hn > 0; i++) {
+        vn[i] /= hn;
+      }
+      for (int k = 0; k < j; k++) {
+        osti_givens(&H[k * hc + j], &H[(k + 1) * hc + j], OST_CS(k), OST_SN(k));
+      }
+      ostNum hjj = H[j * hc + j], den = sqrt(hjj * hjj + hn * hn);
+      OST_CS(j) = den > 0 ? hjj / den : 1;
+      OST_SN(j) = den > 0 ? hn / den : 0;
+      H[j * hc + j] = den;
+      OST_G(j + 1) = -OST_SN(j) * OST_G(j);
+      OST_G(j) = OST_CS(j) * OST_G(j);
+      j++;
+      if (fabs(OST_G(j)) <= rtol * bnorm || hn == 0) {
+        done = 1;
+        break;
+      }
+    }
+    // x += V y with H y = g (upper triangular, j x j)
+    for (int k = j - 1; k >= 0; k--) {
+      ostNum t = OST_G(k);
+      for (int l = k + 1; l < j; l++) {
+        t -= H[k * hc + l] * OST_Y(l);
+      }
+      OST_Y(k) = H[k * hc + k] != 0 ? t / H[k * hc + k] : 0;
+    }
+    for (int i = 0; i < n; i++) {
+      ostNum t = 0;
+      for (int k = 0; k < j; k++) {
+        t += V[(size_t)k * ld + i] * OST_Y(k);
+      }
+      x[i] += t;
+    }
+    if (done || it >= maxit) {
+      break;
+    }
+    // restart from the preconditioned residual P (b - A x)
+    osti_newtonApply(w, r, x);
+    for (int i = 0; i < n; i++) {
+      r[i] = OST_PRECOND(i) * (b[i] - r[i]);
+    }
+    beta = sqrt(ostu_dot(r, r, n));
+    if (!(beta > rtol * bnorm)) {
+      break;
+    }
+  }
+#undef OST_PRECOND
+#undef OST_CS
+#undef OST_SN
+#undef OST_G
+#undef OST_Y
+  return it;
+}
+
+
+// the Newton direction at the evaluated iterate: solve the Schur system by PCR (by GMRES when
+// sliding friction makes it non-symmetric) and
 // back-substitute du; dlambda is rotated back from slip frames to contact frames (J too). The
 // iterate becomes the base of the step: its u, rows and multipliers are kept for osti_trial and
 // for matching multipliers onto the rows of the next iterate. Returns the PCR iterations.
@@ -376,7 +523,8 @@ OST_HD int osti_newtonDirection(ostWorld* w, const ostSolverOptions* opt) {
   for (int i = 0; i < nrow; i++) {
     b[i] = (ostu_dot(w->J + (size_t)i * nv, w->Minv_rdyn, nv) - w->rho[i]) / h;
   }
-  int it = osti_pcr(w, dlam, b, opt->pcr_iter, opt->pcr_tol);
+  int it = osti_hasSlidingCoupling(w) ? osti_gmres(w, dlam, b, opt->pcr_iter, opt->pcr_tol)
+                                      : osti_pcr(w, dlam, b, opt->pcr_iter, opt->pcr_tol);
 
   // du = h Mt^-1 J' dlambda - Mt^-1 r_dyn                                            (eq. 12)
   ostNum* t = w->tmp;

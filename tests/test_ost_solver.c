@@ -1,5 +1,6 @@
 // test_ost_solver.c: the per-world Newton step on hand-made problems with closed-form answers:
-// PCR solves the Schur system exactly, a point mass lands on a hard floor, a velocity servo.
+// PCR solves the Schur system exactly, GMRES the non-symmetric one of sliding friction, a point
+// mass lands on a hard floor, a velocity servo.
 #include "ost_solver.h"
 
 #include <math.h>
@@ -105,12 +106,75 @@ START_TEST(test_pcr) {
 }
 END_TEST
 
+// GMRES solves the non-symmetric Newton system of sliding contacts (osti_newtonApply: the row
+// along the slip gets -(c/h) mu in its normal column, with c ~ 1e12 k_f) to the direct solution:
+// nv = 40, 45 rows (15 contacts, 5 of them sliding), enough that it restarts (OST_KRYLOV = 32)
+START_TEST(test_gmresSliding) {
+  enum { nv = 40, ncon = 15, n = 3 * ncon };
+  ostWorld w;
+  void* buf = makeWorld(&w, nv, n, 0.1);
+  double h = 0.1;
+  unsigned seed = 7;
+  for (int i = 0; i < nv * nv; i++) w.M[i] = 0;
+  for (int j = 0; j < nv; j++) w.M[j * nv + j] = 1 + j;
+  w.M[1] = w.M[nv] = 0.3;
+  ck_assert_int_eq(osti_factorMass(&w), 0);
+  w.nrow = n;
+  for (int i = 0; i < n * nv; i++) {
+    seed = seed * 1103515245u + 12345u;
+    w.J[i] = (double)(seed >> 8) / (1 << 24) - 0.5;
+  }
+  for (int k = 0; k < ncon; k++) {
+    int i = 3 * k, sliding = k % 3 == 0;
+    w.rows[i] = (ostRow){0};
+    w.rows[i].type = OST_ROW_CONTACT;
+    w.rows[i].normal = -1;
+    w.rows[i].mu = 0.8;
+    for (int f = 1; f <= 2; f++) {
+      w.rows[i + f] = (ostRow){0};
+      w.rows[i + f].type = OST_ROW_FRICTION;
+      w.rows[i + f].normal = i;
+    }
+    w.lambda[i] = 10;
+    w.W[i] = sliding;
+    for (int r = 0; r < 3; r++) {
+      osti_rowDiag(&w, i + r);
+      w.c[i + r] = 0.5 * h * w.diag[i + r];
+    }
+    if (sliding) w.c[i + 1] = 1e12 * h * w.diag[i + 1];  // force along the slip fixed
+  }
+  double b[n], x[n], y[n], A[n * n], e[n], xd[n];
+  int piv[n];
+  for (int i = 0; i < n; i++) b[i] = sin(1.0 + i) * (w.c[i] > 1 ? 1e12 : 1);
+  int it = osti_gmres(&w, x, b, 400, 1e-14);
+  ck_assert_int_gt(it, OST_KRYLOV);
+  // the direct solution of the same operator
+  for (int j = 0; j < n; j++) {
+    for (int i = 0; i < n; i++) e[i] = i == j;
+    osti_newtonApply(&w, y, e);
+    for (int i = 0; i < n; i++) A[i * n + j] = y[i];
+  }
+  ck_assert_int_eq(ostu_luFactor(A, piv, n), 0);
+  ostu_luSolve(xd, A, piv, b, n);
+  double err = 0, scale = 0;
+  for (int i = 0; i < n; i++) {
+    err = fmax(err, fabs(x[i] - xd[i]));
+    scale = fmax(scale, fabs(xd[i]));
+  }
+  ck_assert_double_lt(err / scale, 1e-9);
+  // the coupling matters: the sliding rows follow mu dlambda_n, which PCR's symmetric A omits
+  ck_assert_double_eq_tol(x[1] - 0.8 * x[0], xd[1] - 0.8 * xd[0], 1e-9 * scale);
+  free(buf);
+}
+END_TEST
+
 int main(void) {
   Suite* s = suite_create("ost_solver");
   TCase* tc = tcase_create("solver");
   tcase_add_test(tc, test_landing);
   tcase_add_test(tc, test_velocityServo);
   tcase_add_test(tc, test_pcr);
+  tcase_add_test(tc, test_gmresSliding);
   suite_add_tcase(s, tc);
   return ost_fixtureRun(s);
 }
