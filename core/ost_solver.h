@@ -369,11 +369,18 @@ OST_HD int osti_pcr(ostWorld* w, ostNum* x, const ostNum* b, int maxit, ostNum r
 }
 
 
-// 1 if the evaluated iterate has a sliding contact that carries normal force: its friction force
-// along the slip, mu lambda_n, then moves with lambda_n and the Newton system is not symmetric
+// 1 if row i is a contact sliding under normal force (osti_frictionRows set W[i]): its friction
+// force along the slip, mu lambda_n, then moves with lambda_n
+OST_HD int osti_slidingCoupled(const ostWorld* w, int i) {
+  return i + 2 < w->nrow && w->rows[i].type == OST_ROW_CONTACT && w->W[i] != 0
+         && w->lambda[i] > 0;
+}
+
+
+// 1 if the evaluated iterate has a sliding coupling: the Newton system is then not symmetric
 OST_HD int osti_hasSlidingCoupling(const ostWorld* w) {
-  for (int i = 0; i + 2 < w->nrow; i++) {
-    if (w->rows[i].type == OST_ROW_CONTACT && w->W[i] != 0 && w->lambda[i] > 0) {
+  for (int i = 0; i < w->nrow; i++) {
+    if (osti_slidingCoupled(w, i)) {
       return 1;
     }
   }
@@ -388,8 +395,8 @@ OST_HD int osti_hasSlidingCoupling(const ostWorld* w) {
 // sliding friction move together (a skid-steered robot turning: merit stuck at 1e-2 m/s).
 OST_HD void osti_newtonApply(ostWorld* w, ostNum* OST_RESTRICT y, const ostNum* x) {
   osti_schurApply(w, y, x);
-  for (int i = 0; i + 2 < w->nrow; i++) {
-    if (w->rows[i].type == OST_ROW_CONTACT && w->W[i] != 0 && w->lambda[i] > 0) {
+  for (int i = 0; i < w->nrow; i++) {
+    if (osti_slidingCoupled(w, i)) {
       y[i + 1] -= w->c[i + 1] / w->h * w->rows[i].mu * x[i];
     }
   }
