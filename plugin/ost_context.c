@@ -9,6 +9,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "ost_collision_cylbox.h"
 #include "ost_internal.h"
 
 int ost_validateOptions(const ostOptions* opt, char* err, int err_sz);
@@ -28,6 +29,7 @@ static void freeContext(ostContext* c) {
   free(c->jac);
   free(c->world_buf);
   free(c->native_block);
+  free(c->cylbox_block);
   free(c->native_key);
   free(c->kin_buf);
   ost_adjointFree(c);
@@ -179,9 +181,26 @@ double ost_maxPenetration(const mjModel* m, const mjData* d) {
   double pen = 0;
   for (int i = 0; i < d->ncon; i++) {
     const mjContact* con = d->contact + i;
-    if (con->exclude == 0 && -con->dist > pen) {
+    if (con->exclude == 0 && !ost_cylinderBox(m, con->geom1, con->geom2) && -con->dist > pen) {
       pen = -con->dist;
     }
   }
+  // cylinder-box pairs by Ostrich's generator for every engine, so that runs compare on one
+  // measure (MuJoCo's MPR depth of this pair is inexact under penetration)
+  ostModel pairs;
+  void* block = NULL;
+  if (ost_packTypePairs(m, mjGEOM_CYLINDER, mjGEOM_BOX, &pairs, &block) == OST_OK) {
+    for (int p = 0; p < pairs.s.npair; p++) {
+      ostGeom a, b;
+      ostContact con[OST_MAXCONPAIR];
+      ost_placedGeom(m, d, pairs.pair_geom1[p], &a);
+      ost_placedGeom(m, d, pairs.pair_geom2[p], &b);
+      int n = osti_collideCylinderBox(con, &a, &b, 0);
+      for (int i = 0; i < n; i++) {
+        pen = -con[i].dist > pen ? -con[i].dist : pen;
+      }
+    }
+  }
+  free(block);
   return pen;
 }

@@ -167,14 +167,24 @@ static void addPair(ostModel* om, int* n, const mjModel* m, int terrain, int g1,
 }
 
 
-// candidate pairs into om (NULL: count only); explicit pairs first, as MuJoCo
-static int candidatePairs(const mjModel* m, ostModel* om) {
+// 1 if geom types t1, t2 are the type pair (only1, only2) in either order (only1 < 0: any)
+static int typesSelected(int t1, int t2, int only1, int only2) {
+  return only1 < 0 || (t1 == only1 && t2 == only2) || (t1 == only2 && t2 == only1);
+}
+
+
+// candidate pairs into om (NULL: count only), restricted to geom types (only1, only2) unless
+// only1 < 0; explicit pairs first, as MuJoCo
+static int candidatePairs(const mjModel* m, ostModel* om, int only1, int only2) {
   int n = 0, terrain = ost_terrainGeom(m);
   if (m->opt.disableflags & mjDSBL_CONTACT) {
     return 0;
   }
   for (int i = 0; i < m->npair; i++) {
     int g1 = m->pair_geom1[i], g2 = m->pair_geom2[i];
+    if (!typesSelected(m->geom_type[g1], m->geom_type[g2], only1, only2)) {
+      continue;
+    }
     if (typesCollide(m->geom_type[g1] < m->geom_type[g2] ? m->geom_type[g1] : m->geom_type[g2],
                      m->geom_type[g1] < m->geom_type[g2] ? m->geom_type[g2] : m->geom_type[g1])) {
       addPair(om, &n, m, terrain, g1, g2, m->pair_dim[i], m->pair_margin[i], m->pair_gap[i],
@@ -184,7 +194,8 @@ static int candidatePairs(const mjModel* m, ostModel* om) {
   for (int g1 = 0; g1 < m->ngeom; g1++) {
     for (int g2 = g1 + 1; g2 < m->ngeom; g2++) {
       int t1 = m->geom_type[g1], t2 = m->geom_type[g2];
-      if (!typesCollide(t1 < t2 ? t1 : t2, t1 < t2 ? t2 : t1) || !dynamicPair(m, g1, g2)) {
+      if (!typesSelected(t1, t2, only1, only2) || !typesCollide(t1 < t2 ? t1 : t2, t1 < t2 ? t2 : t1)
+          || !dynamicPair(m, g1, g2)) {
         continue;
       }
       int condim = m->geom_condim[g1] > m->geom_condim[g2] ? m->geom_condim[g1]
@@ -241,7 +252,7 @@ int ost_packModel(const mjModel* m, int ncon_max, ostModel* om, void** block, ch
   s.njnt = m->njnt;
   s.ngeom = m->ngeom;
   s.nu = m->nu;
-  s.npair = candidatePairs(m, NULL);
+  s.npair = candidatePairs(m, NULL, -1, -1);
   s.nmesh = m->nmesh;
   s.nmeshvert = m->nmeshvert;
   s.nhfield = m->nhfield;
@@ -324,7 +335,7 @@ int ost_packModel(const mjModel* m, int ncon_max, ostModel* om, void** block, ch
   if (terrain >= 0) {
     om->geom_terrain[terrain] = 1;
   }
-  candidatePairs(m, om);
+  candidatePairs(m, om, -1, -1);
 
   // meshes: all vertices (the support of a convex mesh over them equals its hull's); the
   // terrain mesh also keeps its faces and grid
@@ -372,5 +383,31 @@ int ost_packModel(const mjModel* m, int ncon_max, ostModel* om, void** block, ch
     COPY(om->actuator_forcerange + 2 * i, m->actuator_forcerange + 2 * i, 2);
   }
 #undef COPY
+  return OST_OK;
+}
+
+
+int ost_packTypePairs(const mjModel* m, int t1, int t2, ostModel* pairs, void** block) {
+  free(*block);
+  *block = NULL;
+  memset(pairs, 0, sizeof(*pairs));
+  int n = candidatePairs(m, NULL, t1, t2);
+  if (n == 0) {
+    return OST_OK;
+  }
+  size_t ints = 3 * (size_t)n * sizeof(int), nums = 3 * (size_t)n * sizeof(ostNum);
+  char* b = malloc(ints + nums);
+  if (!b) {
+    return OST_ERR_MEMORY;
+  }
+  *block = b;
+  pairs->s.npair = n;
+  pairs->pair_geom1 = (int*)b;
+  pairs->pair_geom2 = pairs->pair_geom1 + n;
+  pairs->pair_condim = pairs->pair_geom2 + n;
+  pairs->pair_margin = (ostNum*)(b + ints);
+  pairs->pair_gap = pairs->pair_margin + n;
+  pairs->pair_friction = pairs->pair_gap + n;
+  candidatePairs(m, pairs, t1, t2);
   return OST_OK;
 }

@@ -1,12 +1,14 @@
 // ost_rows_mujoco.c: the `mujoco` geometry provider. At a Newton iterate q it runs MuJoCo's own
 // kinematics, transmission and collision on the private model (margins widened by the
 // look-ahead distance) and packs the constraint rows of the core solver: equality and joint
-// limit rows from MuJoCo's efc rows, contact rows from d->contact and mj_jac, servo rows from
-// the actuators. Invariant: rows are produced in a deterministic order, so that evaluating the
+// limit rows from MuJoCo's efc rows, contact rows from d->contact and mj_jac (except
+// cylinder-box pairs, whose contacts come from core/ost_collision_cylbox.h at MuJoCo's geom
+// poses, as in the native provider), servo rows from the actuators. Invariant: rows are produced in a deterministic order, so that evaluating the
 // same q twice yields identical rows (the best iterate is re-evaluated by index).
 #include <math.h>
 #include <string.h>
 
+#include "ost_collision_cylbox.h"
 #include "ost_internal.h"
 
 // copy efc row i of d into the dense row J (nv)
@@ -24,28 +26,83 @@ static void efcRow(const mjModel* m, const mjData* d, int i, ostNum* J) {
 }
 
 
-// rows n, t1, t2 of a contact: frame rows times (J(body2) - J(body1)) at the contact point;
-// returns 0 if the contact moves no degree of freedom
-static int contactJacobian(ostContext* c, const mjData* d, const mjContact* con, ostNum* Jn,
-                           ostNum* Jt1, ostNum* Jt2) {
+// rows n, t1, t2 of a contact between geoms g1, g2 at pos with frame: frame rows times
+// (J(body2) - J(body1)) at the contact point; returns 0 if the contact moves no degree of freedom
+static int contactJacobian(ostContext* c, const mjData* d, int g1, int g2, const mjtNum pos[3],
+                           const mjtNum frame[9], ostNum* Jn, ostNum* Jt1, ostNum* Jt2) {
   const mjModel* m = c->mo;
   int nv = m->nv;
   mjtNum* j1 = c->jac;
   mjtNum* j2 = c->jac + 3 * nv;
-  int b1 = m->geom_bodyid[con->geom1], b2 = m->geom_bodyid[con->geom2];
+  int b1 = m->geom_bodyid[g1], b2 = m->geom_bodyid[g2];
   memset(c->jac, 0, 6 * nv * sizeof(mjtNum));
-  if (b1 > 0) mj_jac(m, d, j1, NULL, con->pos, b1);
-  if (b2 > 0) mj_jac(m, d, j2, NULL, con->pos, b2);
-  return osti_contactRows(con->frame, j1, j2, nv, Jn, Jt1, Jt2);
+  if (b1 > 0) mj_jac(m, d, j1, NULL, pos, b1);
+  if (b2 > 0) mj_jac(m, d, j2, NULL, pos, b2);
+  return osti_contactRows(frame, j1, j2, nv, Jn, Jt1, Jt2);
+}
+
+
+// matching key of a contact of geoms g1, g2 at pos (see ost_contactKey)
+static void contactKeyOf(const mjModel* m, const mjData* d, int g1, int g2, const mjtNum pos[3],
+                         mjtNum key[3]) {
+  int b = m->geom_bodyid[g2];
+  if (b == 0) {
+    b = m->geom_bodyid[g1];
+  }
+  osti_contactKeyOf(key, pos, d->xpos + 3 * b, d->xmat + 9 * b);
 }
 
 
 void ost_contactKey(const mjModel* m, const mjData* d, const mjContact* con, mjtNum key[3]) {
-  int b = m->geom_bodyid[con->geom2];
-  if (b == 0) {
-    b = m->geom_bodyid[con->geom1];
+  contactKeyOf(m, d, con->geom1, con->geom2, con->pos, key);
+}
+
+
+// append the rows of one contact at rows[*n]: normal, and two tangents when fric; gap is the
+// row's distance offset (the user's margin - gap, with the look-ahead: dist - gap = row pos)
+static int contactRows(ostContext* c, const mjData* d, int g1, int g2, const mjtNum pos[3],
+                       const mjtNum frame[9], mjtNum dist, mjtNum mu, int fric, int* n) {
+  ostWorld* w = &c->world;
+  int nv = c->mo->nv;
+  if (*n + (fric ? 3 : 1) > w->nrow_max) {
+    return ost_fail(c, OST_ERR_OVERFLOW, "row capacity %d exceeded", w->nrow_max);
   }
-  osti_contactKeyOf(key, con->pos, d->xpos + 3 * b, d->xmat + 9 * b);
+  ostNum* Jn = w->J + (size_t)*n * nv;
+  if (!contactJacobian(c, d, g1, g2, pos, frame, Jn, fric ? Jn + nv : NULL,
+                       fric ? Jn + 2 * nv : NULL)) {
+    return OST_OK;
+  }
+  for (int k = 0; k < (fric ? 3 : 1); k++) {
+    ostRow* r = w->rows + *n + k;
+    memset(r, 0, sizeof(ostRow));
+    r->type = k == 0 ? OST_ROW_CONTACT : OST_ROW_FRICTION;
+    r->normal = k == 0 ? -1 : *n;
+    r->obj[0] = g1;
+    r->obj[1] = g2;
+    contactKeyOf(c->mo, d, g1, g2, pos, r->key);
+    r->pos = dist;
+    r->mu = mu;
+  }
+  *n += fric ? 3 : 1;
+  return OST_OK;
+}
+
+
+int ost_cylinderBox(const mjModel* m, int g1, int g2) {
+  int t1 = m->geom_type[g1], t2 = m->geom_type[g2];
+  return (t1 == mjGEOM_CYLINDER && t2 == mjGEOM_BOX) || (t1 == mjGEOM_BOX && t2 == mjGEOM_CYLINDER);
+}
+
+
+void ost_placedGeom(const mjModel* m, const mjData* d, int g, ostGeom* out) {
+  memset(out, 0, sizeof(*out));
+  out->type = m->geom_type[g];
+  out->rbound = m->geom_rbound[g];
+  for (int i = 0; i < 3; i++) {
+    out->size[i] = m->geom_size[3 * g + i];
+    out->pos[i] = d->geom_xpos[3 * g + i];
+  }
+  memcpy(out->mat, d->geom_xmat + 9 * g, 9 * sizeof(mjtNum));
 }
 
 
@@ -106,30 +163,42 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
   }
 
   // contact rows: normal then two tangents in the contact frame (frame[0:3] from geom1 to
-  // geom2, so J_n u > 0 separates); contacts within the look-ahead distance are candidates
+  // geom2, so J_n u > 0 separates); contacts within the look-ahead distance are candidates.
+  // Cylinder-box pairs are MuJoCo's MPR: theirs are replaced by core's contacts (below)
+  int status;
   for (int i = 0; i < d->ncon; i++) {
     const mjContact* con = d->contact + i;
-    if (con->exclude > 1) {
-      continue;  // fused, equality-joined or without degrees of freedom
+    if (con->exclude > 1 || ost_cylinderBox(m, con->geom1, con->geom2)) {
+      continue;  // fused, equality-joined or without degrees of freedom; or core's pair
     }
     int fric = con->dim >= 3 && con->friction[0] > 0;
-    NEED_ROWS(fric ? 3 : 1);
-    ostNum* Jn = w->J + (size_t)n * nv;
-    if (!contactJacobian(c, d, con, Jn, fric ? Jn + nv : NULL, fric ? Jn + 2 * nv : NULL)) {
-      continue;
+    mjtNum pos = con->dist - con->includemargin + c->opt.margin;  // user's margin - gap
+    if ((status = contactRows(c, d, con->geom1, con->geom2, con->pos, con->frame, pos,
+                              con->friction[0], fric, &n))) {
+      return status;
     }
-    for (int k = 0; k < (fric ? 3 : 1); k++) {
-      ostRow* r = w->rows + n + k;
-      memset(r, 0, sizeof(ostRow));
-      r->type = k == 0 ? OST_ROW_CONTACT : OST_ROW_FRICTION;
-      r->normal = k == 0 ? -1 : n;
-      r->obj[0] = con->geom1;
-      r->obj[1] = con->geom2;
-      ost_contactKey(m, d, con, r->key);
-      r->pos = con->dist - con->includemargin + c->opt.margin;  // user's margin - gap
-      r->mu = con->friction[0];
+  }
+  const ostModel* cb = &c->cylbox;
+  for (int p = 0; p < cb->s.npair; p++) {
+    ostGeom a, b;
+    ostContact con[OST_MAXCONPAIR];
+    int g1 = cb->pair_geom1[p], g2 = cb->pair_geom2[p];
+    ost_placedGeom(m, d, g1, &a);
+    ost_placedGeom(m, d, g2, &b);
+    mjtNum dx[3] = {a.pos[0] - b.pos[0], a.pos[1] - b.pos[1], a.pos[2] - b.pos[2]};
+    mjtNum reach = a.rbound + b.rbound + cb->pair_margin[p];
+    if (mju_dot3(dx, dx) > reach * reach) {
+      continue;  // bounding spheres apart, as MuJoCo's broadphase
     }
-    n += fric ? 3 : 1;
+    int ncon = osti_collideCylinderBox(con, &a, &b, cb->pair_margin[p]);
+    int fric = cb->pair_condim[p] >= 3 && cb->pair_friction[p] > 0;
+    for (int i = 0; i < ncon; i++) {
+      mjtNum pos = con[i].dist - (cb->pair_margin[p] - cb->pair_gap[p]) + c->opt.margin;
+      if ((status = contactRows(c, d, g1, g2, con[i].pos, con[i].frame, pos,
+                                cb->pair_friction[p], fric, &n))) {
+        return status;
+      }
+    }
   }
 
   // implicit servo rows: force = g ctrl + b0 + b1 L(q) + b2 V, V = moment u          (eq. 8)

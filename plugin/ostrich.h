@@ -146,7 +146,8 @@ const ostStats* ost_stats(const mjData* d);
 // Message of the last failed call on d ("" if none).
 const char* ost_lastError(const mjData* d);
 
-// Deepest penetration (m) among the contacts that MuJoCo includes in d->contact.
+// Deepest penetration (m) at d's kinematics: MuJoCo's contacts in d->contact, except that
+// cylinder-box pairs are measured with Ostrich's generator (as both providers collide them).
 double ost_maxPenetration(const mjModel* m, const mjData* d);
 
 // Release Ostrich's per-mjData state (buffers, options). Safe on unknown d.

@@ -4,6 +4,7 @@
 // sizes, margins and poses at random (with flat, aligned and parallel special poses mixed in),
 // runs mj_forward, and matches d->contact with Ostrich's contacts as sets, by position.
 #include "ost_collision_box.h"
+#include "ost_collision_cylbox.h"
 
 #include <check.h>
 #include <math.h>
@@ -355,6 +356,125 @@ START_TEST(test_box_box) { checkPair(mjGEOM_BOX, mjGEOM_BOX, NCASE); } END_TEST
 START_TEST(test_capsule_box) { checkPair(mjGEOM_CAPSULE, mjGEOM_BOX, NCASE); } END_TEST
 
 
+//---------------------------------- cylinder : box (Ostrich's own) -------------------------------
+
+// a wheel (r 0.35, half length 0.05) against the pallet's box (half sizes 0.6 0.4 0.072 at the
+// origin); axis 0: along world y (a wheel), 1: along z (standing on its cap); yaw about z
+static int wheelBox(ostContact* con, double x, double y, double z, int standing, double yaw,
+                    double margin) {
+  ostGeom cyl, box;
+  memset(&cyl, 0, sizeof(cyl));
+  memset(&box, 0, sizeof(box));
+  box.type = OST_GEOM_BOX;
+  box.size[0] = 0.6; box.size[1] = 0.4; box.size[2] = 0.072;
+  box.mat[0] = box.mat[4] = box.mat[8] = 1;
+  cyl.type = OST_GEOM_CYLINDER;
+  cyl.size[0] = 0.35; cyl.size[1] = 0.05;
+  cyl.pos[0] = x; cyl.pos[1] = y; cyl.pos[2] = z;
+  // columns are the geom's axes: standing: identity; wheel: x, -z, y rotated by yaw about z
+  double c = cos(yaw), s = sin(yaw);
+  double ax[3] = {c, s, 0}, ay[3] = {0, 0, -1}, az[3] = {-s, c, 0};
+  if (standing) {
+    ay[1] = 1; ay[2] = 0; az[0] = 0; az[1] = 0; az[2] = 1; ax[0] = 1; ax[1] = 0;
+  }
+  for (int r = 0; r < 3; r++) {
+    cyl.mat[3 * r] = ax[r]; cyl.mat[3 * r + 1] = ay[r]; cyl.mat[3 * r + 2] = az[r];
+  }
+  return osti_collideCylinderBox(con, &cyl, &box, margin);
+}
+
+
+// closed-form cases: a wheel on the top face, flush with the side face, on the near edge
+// (parallel), lifted above the margin, standing on its cap; and continuity of the deepest
+// contact while the wheel rolls over the edge and while it yaws through 0 on the edge
+START_TEST(test_cylinder_box) {
+  ostContact con[OST_MAXCONPAIR];
+  const double top = 0.072, r = 0.35;
+
+  // on the top face, 3 mm deep: the two ends of the bottom line
+  int n = wheelBox(con, 0.1, 0.2, top + r - 0.003, 0, 0, 0);
+  ck_assert_int_eq(n, 2);
+  for (int i = 0; i < n; i++) {
+    ck_assert_double_eq_tol(con[i].dist, -0.003, 1e-15);
+    ck_assert_double_eq_tol(con[i].frame[2], -1, 1e-15);
+    ck_assert_double_eq_tol(con[i].pos[2], top - 0.0015, 1e-15);
+    ck_assert_double_eq_tol(fabs(con[i].pos[1] - 0.2), 0.05, 1e-15);
+  }
+
+  // flush with the side face (outer rim at y = 0.4): still the face, rims at 0.3 and 0.4
+  n = wheelBox(con, 0.1, 0.35, top + r - 0.003, 0, 0, 0);
+  ck_assert_int_eq(n, 2);
+  ck_assert_double_eq_tol(con[0].frame[2], -1, 1e-15);
+  ck_assert_double_eq_tol(con[1].frame[2], -1, 1e-15);
+  ck_assert_double_eq_tol(fmax(con[0].pos[1], con[1].pos[1]), 0.4, 1e-15);
+
+  // on the near edge (x = -0.6, z = top), axis parallel to it: the distance from the edge to
+  // the axis minus r, normal from the axis to the edge, two points 1% of hl inside the rims
+  double dx = 0.2, dz = 0.25, len = sqrt(dx * dx + dz * dz);
+  n = wheelBox(con, -0.6 - dx, 0.2, top + dz, 0, 0, 0);
+  ck_assert_int_eq(n, 2);
+  for (int i = 0; i < n; i++) {
+    ck_assert_double_eq_tol(con[i].dist, len - r, 1e-14);
+    ck_assert_double_eq_tol(con[i].frame[0], dx / len, 1e-14);
+    ck_assert_double_eq_tol(con[i].frame[2], -dz / len, 1e-14);
+    ck_assert_double_eq_tol(fabs(con[i].pos[1] - 0.2), 0.0495, 1e-14);
+  }
+
+  // 2 cm above the face: nothing within a 1 cm margin, two contacts within 3 cm
+  ck_assert_int_eq(wheelBox(con, 0.1, 0.2, top + r + 0.02, 0, 0, 0.01), 0);
+  n = wheelBox(con, 0.1, 0.2, top + r + 0.02, 0, 0, 0.03);
+  ck_assert_int_eq(n, 2);
+  ck_assert_double_eq_tol(con[0].dist, 0.02, 1e-15);
+
+  // standing on its cap, 1 mm deep: four rim points
+  n = wheelBox(con, 0.1, 0.1, top + 0.05 - 0.001, 1, 0, 0);
+  ck_assert_int_eq(n, 4);
+  for (int i = 0; i < n; i++) {
+    ck_assert_double_eq_tol(con[i].dist, -0.001, 1e-15);
+    ck_assert_double_eq_tol(con[i].frame[2], -1, 1e-15);
+  }
+
+  // rolling over the edge at the height where the wheel touches the face: the deepest
+  // distance is continuous (Lipschitz 1 in x), and so is the normal's x component
+  double prev_d = 0, prev_nx = 0, step = 1e-4, worst = 0;
+  for (int k = 0; k <= 3500; k++) {
+    double x = -0.75 + k * step;
+    n = wheelBox(con, x, 0.2, top + r - 0.001, 0, 0, 0.05);
+    ck_assert_int_ge(n, 1);
+    double d = 1, nx = 0;
+    for (int i = 0; i < n; i++) {
+      if (con[i].dist < d) {
+        d = con[i].dist;
+        nx = con[i].frame[0];
+      }
+    }
+    if (k > 0) {
+      worst = fmax(worst, fabs(d - prev_d) / step);
+      ck_assert_msg(fabs(nx - prev_nx) < 0.01, "normal jumps at x = %g", x);
+    }
+    prev_d = d;
+    prev_nx = nx;
+  }
+  ck_assert_double_le(worst, 1 + 1e-6);
+
+  // yawing through 0 on the edge: distances continuous (slope <= hl), count constant
+  double prev[2] = {0, 0};
+  for (int k = -100; k <= 100; k++) {
+    double yaw = k * 1e-6;
+    n = wheelBox(con, -0.6 - dx, 0.2, top + dz, 0, yaw, 0);
+    ck_assert_int_eq(n, 2);
+    if (k > -100) {
+      for (int i = 0; i < 2; i++) {
+        ck_assert_double_le(fabs(con[i].dist - prev[i]), 0.06 * 1e-6);
+      }
+    }
+    prev[0] = con[0].dist;
+    prev[1] = con[1].dist;
+  }
+}
+END_TEST
+
+
 // osti_makeFrame against the frames of mj_forward for tilted planes under a sphere (no hint)
 // and under a capsule (the axis as hint), including normals near the y axis
 START_TEST(test_make_frame) {
@@ -446,6 +566,7 @@ int main(void) {
   tcase_add_test(tc, test_sphere_box);
   tcase_add_test(tc, test_box_box);
   tcase_add_test(tc, test_capsule_box);
+  tcase_add_test(tc, test_cylinder_box);
   suite_add_tcase(s, tc);
   SRunner* sr = srunner_create(s);
   srunner_run_all(sr, CK_NORMAL);

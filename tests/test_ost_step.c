@@ -71,13 +71,18 @@ START_TEST(test_repeatFromRestoredState) {
 END_TEST
 
 
-// a step whose Newton solve fails (a wheel meeting the pallet edge at h = 0.1 s) is split into
-// substeps: the stats say so and time still advances by exactly h per ost_step
+// a step whose Newton solve fails (a wheel meeting the pallet edge at h = 0.1 s with a budget
+// of 3 Newton iterates) is split into substeps: the stats say so and time still advances by
+// exactly h per ost_step
 START_TEST(test_splitStep) {
   ost_fixtureSetup();
   mjModel* m = ost_fixtureLoadModel("robot_pallet.xml");
   mjData* d = mj_makeData(m);
-  ost_fixtureSetTimestep(m, d, 0.1);
+  ostOptions opt;
+  ck_assert_int_eq(ost_readOptions(m, &opt, NULL, 0), OST_OK);
+  opt.timestep = 0.1;
+  opt.newton_iter = 3;
+  ck_assert_int_eq(ost_setOptions(m, d, &opt), OST_OK);
   for (int i = 0; i < m->nu; i++) d->ctrl[i] = 3;
   int split = 0;
   for (int k = 0; k < 20; k++) {
