@@ -4,7 +4,9 @@
 // near the geom becomes a triangular prism reaching down to a flat base, and MPR
 // (osti_mprPenetration, ost_collision_convex.h) runs once per prism; each penetrating prism gives
 // one contact. The mesh terrain (Ostrich only; MuJoCo collides a mesh as its convex hull) applies
-// the same rule to arbitrary triangles, found through a uniform xy grid built on the host.
+// the same rule to arbitrary triangles, found through a uniform xy grid built on the host. A
+// cylinder (a wheel) is the exception: both terrains hand their triangles to Ostrich's own
+// generator (ost_collision_cylsurf.h) instead of prisms and MPR.
 // Invariant: both functions write n <= min(ncon_max, OST_MAXCONPAIR) contacts in con[0..n) with
 // normals from the terrain (geom1) to the geom (geom2), and a mesh whose triangles, vertex order
 // and face order equal the height field's triangulation (compare/gen_terrain.py) gives the same
@@ -15,6 +17,7 @@
 #include <math.h>
 
 #include "ost_collision_convex.h"
+#include "ost_collision_cylsurf.h"
 #include "ost_geom.h"
 #include "ost_hd.h"
 
@@ -204,6 +207,27 @@ OST_HD int osti_collideHField(ostContact* con, int ncon_max, const ostHField* hf
   ostNum dx = (2.0*size[0]) / (ncol-1);
   ostNum dy = (2.0*size[1]) / (nrow-1);
 
+  // a cylinder: Ostrich's own contacts over the same triangles (ost_collision_cylsurf.h)
+  if (g2->type == OST_GEOM_CYLINDER) {
+    ostCylSurf cs;
+    osti_cylSurfInit(&cs, &loc, margin);
+    int n = 0;
+    for (int r = rmin; r < rmax; r++) {
+      for (int c = cmin; c < cmax; c++) {
+        ostNum v[4][3];  // (c, r+1), (c, r), (c+1, r+1), (c+1, r)
+        for (int k = 0; k < 4; k++) {
+          int cc = c + k / 2, rr = r + 1 - k % 2;
+          v[k][0] = dx*cc - size[0];
+          v[k][1] = dy*rr - size[1];
+          v[k][2] = hf->data[rr*ncol + cc]*size[2];
+        }
+        n = osti_cylSurfTriangle(&cs, v[0], v[1], v[2], con, n, ncon_max);
+        n = osti_cylSurfTriangle(&cs, v[1], v[2], v[3], con, n, ncon_max);
+      }
+    }
+    return osti_cylSurfFinish(&cs, ghf, con, n, ncon_max);
+  }
+
   // strip of row r: vertices (c, r+1), (c, r), (c+1, r+1), (c+1, r), ...; every new vertex closes
   // a triangle with the two before it: {(c,r+1), (c,r), (c+1,r+1)}, {(c,r), (c+1,r+1), (c+1,r)}
   ostNum prism[18] = {0};
@@ -297,8 +321,11 @@ OST_HD int osti_collideTerrain(ostContact* con, int ncon_max, const ostTerrain* 
   osti_terrainCells(qc, t, box);
 
   // passes: collect the smallest candidate faces above 'last' into cand (sorted), test them
+  // (a cylinder: Ostrich's own contacts over the faces, ost_collision_cylsurf.h)
   int cand[OST_TERRAIN_MAXCAND];
-  int cnt = 0, last = -1, more = 1;
+  int cnt = 0, last = -1, more = 1, cylinder = g2->type == OST_GEOM_CYLINDER;
+  ostCylSurf cs;
+  osti_cylSurfInit(&cs, &loc, margin);
   while (more && cnt < ncon_max) {
     int ncand = 0;
     more = 0;
@@ -356,13 +383,19 @@ OST_HD int osti_collideTerrain(ostContact* con, int ncon_max, const ostTerrain* 
           && prism[17] + margin < box[4]) {
         continue;
       }
-      cnt += osti_terrainPrism(con + cnt, prism, &loc, gt, margin, tol, maxiter);
+      if (cylinder) {
+        cnt = osti_cylSurfTriangle(&cs, prism + 9, prism + 12, prism + 15, con, cnt, ncon_max);
+      } else {
+        cnt += osti_terrainPrism(con + cnt, prism, &loc, gt, margin, tol, maxiter);
+      }
     }
     if (ncand) {
       last = cand[ncand-1];
     }
   }
-
+  if (cylinder) {
+    return osti_cylSurfFinish(&cs, gt, con, cnt, ncon_max);
+  }
   osti_terrainFinish(con, cnt, gt, g2);
   return cnt;
 }

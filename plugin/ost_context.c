@@ -9,7 +9,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "ost_collision_cylbox.h"
 #include "ost_internal.h"
 
 int ost_validateOptions(const ostOptions* opt, char* err, int err_sz);
@@ -29,7 +28,8 @@ static void freeContext(ostContext* c) {
   free(c->jac);
   free(c->world_buf);
   free(c->native_block);
-  free(c->cylbox_block);
+  free(c->corepairs_block);
+  free(c->hfield_data);
   free(c->native_key);
   free(c->kin_buf);
   ost_adjointFree(c);
@@ -181,26 +181,26 @@ double ost_maxPenetration(const mjModel* m, const mjData* d) {
   double pen = 0;
   for (int i = 0; i < d->ncon; i++) {
     const mjContact* con = d->contact + i;
-    if (con->exclude == 0 && !ost_cylinderBox(m, con->geom1, con->geom2) && -con->dist > pen) {
+    if (con->exclude == 0 && !ost_corePair(m, con->geom1, con->geom2) && -con->dist > pen) {
       pen = -con->dist;
     }
   }
-  // cylinder-box pairs by Ostrich's generator for every engine, so that runs compare on one
-  // measure (MuJoCo's MPR depth of this pair is inexact under penetration)
+  // core pairs (cylinder-box, height field-cylinder) by Ostrich's own functions for every
+  // engine, so that runs compare on one measure (MuJoCo's MPR depth is inexact there)
   ostModel pairs;
   void* block = NULL;
-  if (ost_packTypePairs(m, mjGEOM_CYLINDER, mjGEOM_BOX, &pairs, &block) == OST_OK) {
+  ostNum* hdata = NULL;
+  int hn = 0;
+  if (ost_packCorePairs(m, &pairs, &block) == OST_OK && ost_hfieldData(m, &hdata, &hn) == OST_OK) {
     for (int p = 0; p < pairs.s.npair; p++) {
-      ostGeom a, b;
       ostContact con[OST_MAXCONPAIR];
-      ost_placedGeom(m, d, pairs.pair_geom1[p], &a);
-      ost_placedGeom(m, d, pairs.pair_geom2[p], &b);
-      int n = osti_collideCylinderBox(con, &a, &b, 0);
+      int n = ost_collideCorePair(m, d, hdata, pairs.pair_geom1[p], pairs.pair_geom2[p], 0, con);
       for (int i = 0; i < n; i++) {
         pen = -con[i].dist > pen ? -con[i].dist : pen;
       }
     }
   }
   free(block);
+  free(hdata);
   return pen;
 }

@@ -54,8 +54,10 @@ typedef struct ostContext_ {
   mjOption       native_opt;      // the user's m->opt when packed
   int            native_nconmax;  // the user's m->nconmax when packed
   double         native_margin;   // the look-ahead margin when packed
-  ostModel       cylbox;          // mujoco provider: cylinder-box pairs, collided by core
-  void*          cylbox_block;    // their arrays (ost_packTypePairs)
+  ostModel       corepairs;       // mujoco provider: pairs collided by core (ost_corePair)
+  void*          corepairs_block; // their arrays (ost_packCorePairs)
+  ostNum*        hfield_data;     // the model's height-field data as ostNum (nhfielddata)
+  int            hfield_n;        // its length
   void*          kin_buf;         // its kinematics' single allocation
   ostKin         kin;             // native kinematics, pointers into kin_buf
   ostWorld       world;           // core solver state, pointers into world_buf
@@ -94,22 +96,27 @@ void ost_startNative(ostContext* c, const mjData* d, mjtNum h);
 // body unless that is the world), so that contacts keep their keys while the bodies move
 void ost_contactKey(const mjModel* m, const mjData* d, const mjContact* con, mjtNum key[3]);
 
-// 1 if geoms g1, g2 are a cylinder and a box: both providers collide them with core's
-// function (core/ost_collision_cylbox.h), not with MuJoCo's MPR
-int ost_cylinderBox(const mjModel* m, int g1, int g2);
+// 1 if geoms g1, g2 are a pair that both providers collide with core's own functions, not
+// MuJoCo's MPR: cylinder-box (core/ost_collision_cylbox.h) and height field-cylinder
+// (core/ost_collision_cylsurf.h)
+int ost_corePair(const mjModel* m, int g1, int g2);
 
-// geom g of m placed at d's kinematics (geom_xpos, geom_xmat), as core's collision functions
-// see it (primitive types: no mesh vertices)
-void ost_placedGeom(const mjModel* m, const mjData* d, int g, ostGeom* out);
+// contacts of core pair (g1, g2) of m at d's kinematics with the given margin into con (room
+// for OST_MAXCONPAIR); hfield_data: m's height-field data as ostNum (ost_hfieldData)
+int ost_collideCorePair(const mjModel* m, const mjData* d, const ostNum* hfield_data, int g1,
+                        int g2, ostNum margin, ostContact* con);
+
+// m's height-field data as ostNum into *buf (reallocated to m->nhfielddata, *n its length)
+int ost_hfieldData(const mjModel* m, ostNum** buf, int* n);
 
 // pack m into om (arrays in *block, 64-byte aligned, caller frees) with a contact capacity
 int ost_packModel(const mjModel* m, int ncon_max, ostModel* om, void** block, char* err,
                   int err_sz);
 
-// the candidate pairs of geom types (t1, t2) of m, with their contact parameters, into the
-// pair_* arrays and s.npair of pairs (arrays in *block, freed and replaced; nothing else of
-// pairs is set): the mujoco provider collides these pairs with core's functions
-int ost_packTypePairs(const mjModel* m, int t1, int t2, ostModel* pairs, void** block);
+// the candidate core pairs of m (ost_corePair) with their contact parameters, into the pair_*
+// arrays and s.npair of pairs (arrays in *block, freed and replaced; nothing else of pairs is
+// set): the mujoco provider collides these pairs with core's functions
+int ost_packCorePairs(const mjModel* m, ostModel* pairs, void** block);
 
 // classify actuator i: 1 implicit servo, 0 explicit force, -1 unsupported (message in err)
 int ost_actuatorKind(const mjModel* m, int i, char* err, int err_sz);

@@ -88,15 +88,16 @@ static int samePair(int g1, int g2, int a, int b, double* sign) {
 // compare contacts of d (MuJoCo) with k (native), pair by pair: the j-th contact of a pair in
 // MuJoCo's list against the j-th of the same pair in native's (both keep the pair function's
 // order); pairs with different counts count as unmatched. Contacts of an ostrich/terrain mesh
-// are skipped (MuJoCo collides that mesh as its convex hull), and so are cylinder-box pairs:
-// both providers collide them with Ostrich's own function, not MuJoCo's MPR (checked against
-// closed-form geometry in test_ost_collision_primitive and by dual numbers in test_ost_dual).
+// are skipped (MuJoCo collides that mesh as its convex hull), and so are cylinder-box and
+// height field-cylinder pairs: both providers collide them with Ostrich's own functions, not
+// MuJoCo's MPR (checked against closed-form geometry in test_ost_collision_primitive and
+// test_ost_collision_terrain, and by dual numbers in test_ost_dual).
 static void compareContacts(const mjModel* m, const mjData* d, const ostModel* om,
                             const ostKin* k, ostNativeReport* r) {
   int terrain = ost_terrainGeom(m), unmatched = 0;
   for (int i = 0; i < d->ncon; i++) {
     const mjContact* c = d->contact + i;
-    if (c->geom1 == terrain || c->geom2 == terrain || ost_cylinderBox(m, c->geom1, c->geom2)) {
+    if (c->geom1 == terrain || c->geom2 == terrain || ost_corePair(m, c->geom1, c->geom2)) {
       continue;
     }
     r->ncontact++;
@@ -139,7 +140,7 @@ static void compareContacts(const mjModel* m, const mjData* d, const ostModel* o
     int p = k->contact_pair[j], found = 0;
     double s;
     if (om->pair_geom1[p] == terrain || om->pair_geom2[p] == terrain
-        || ost_cylinderBox(m, om->pair_geom1[p], om->pair_geom2[p])) {
+        || ost_corePair(m, om->pair_geom1[p], om->pair_geom2[p])) {
       continue;
     }
     for (int i = 0; i < d->ncon && !found; i++) {

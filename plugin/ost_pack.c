@@ -167,22 +167,29 @@ static void addPair(ostModel* om, int* n, const mjModel* m, int terrain, int g1,
 }
 
 
-// 1 if geom types t1, t2 are the type pair (only1, only2) in either order (only1 < 0: any)
-static int typesSelected(int t1, int t2, int only1, int only2) {
-  return only1 < 0 || (t1 == only1 && t2 == only2) || (t1 == only2 && t2 == only1);
+// 1 if geom types t1, t2 (either order) are a pair that both providers collide with core's own
+// functions: cylinder-box (ost_collision_cylbox.h), height field-cylinder (_cylsurf.h)
+static int coreTypes(int t1, int t2) {
+  int lo = t1 < t2 ? t1 : t2, hi = t1 < t2 ? t2 : t1;
+  return (lo == mjGEOM_CYLINDER && hi == mjGEOM_BOX) || (lo == mjGEOM_HFIELD && hi == mjGEOM_CYLINDER);
 }
 
 
-// candidate pairs into om (NULL: count only), restricted to geom types (only1, only2) unless
-// only1 < 0; explicit pairs first, as MuJoCo
-static int candidatePairs(const mjModel* m, ostModel* om, int only1, int only2) {
+int ost_corePair(const mjModel* m, int g1, int g2) {
+  return coreTypes(m->geom_type[g1], m->geom_type[g2]);
+}
+
+
+// candidate pairs into om (NULL: count only), only core pairs (coreTypes) if core_only;
+// explicit pairs first, as MuJoCo
+static int candidatePairs(const mjModel* m, ostModel* om, int core_only) {
   int n = 0, terrain = ost_terrainGeom(m);
   if (m->opt.disableflags & mjDSBL_CONTACT) {
     return 0;
   }
   for (int i = 0; i < m->npair; i++) {
     int g1 = m->pair_geom1[i], g2 = m->pair_geom2[i];
-    if (!typesSelected(m->geom_type[g1], m->geom_type[g2], only1, only2)) {
+    if (core_only && !coreTypes(m->geom_type[g1], m->geom_type[g2])) {
       continue;
     }
     if (typesCollide(m->geom_type[g1] < m->geom_type[g2] ? m->geom_type[g1] : m->geom_type[g2],
@@ -194,7 +201,7 @@ static int candidatePairs(const mjModel* m, ostModel* om, int only1, int only2) 
   for (int g1 = 0; g1 < m->ngeom; g1++) {
     for (int g2 = g1 + 1; g2 < m->ngeom; g2++) {
       int t1 = m->geom_type[g1], t2 = m->geom_type[g2];
-      if (!typesSelected(t1, t2, only1, only2) || !typesCollide(t1 < t2 ? t1 : t2, t1 < t2 ? t2 : t1)
+      if ((core_only && !coreTypes(t1, t2)) || !typesCollide(t1 < t2 ? t1 : t2, t1 < t2 ? t2 : t1)
           || !dynamicPair(m, g1, g2)) {
         continue;
       }
@@ -252,7 +259,7 @@ int ost_packModel(const mjModel* m, int ncon_max, ostModel* om, void** block, ch
   s.njnt = m->njnt;
   s.ngeom = m->ngeom;
   s.nu = m->nu;
-  s.npair = candidatePairs(m, NULL, -1, -1);
+  s.npair = candidatePairs(m, NULL, 0);
   s.nmesh = m->nmesh;
   s.nmeshvert = m->nmeshvert;
   s.nhfield = m->nhfield;
@@ -335,7 +342,7 @@ int ost_packModel(const mjModel* m, int ncon_max, ostModel* om, void** block, ch
   if (terrain >= 0) {
     om->geom_terrain[terrain] = 1;
   }
-  candidatePairs(m, om, -1, -1);
+  candidatePairs(m, om, 0);
 
   // meshes: all vertices (the support of a convex mesh over them equals its hull's); the
   // terrain mesh also keeps its faces and grid
@@ -387,11 +394,11 @@ int ost_packModel(const mjModel* m, int ncon_max, ostModel* om, void** block, ch
 }
 
 
-int ost_packTypePairs(const mjModel* m, int t1, int t2, ostModel* pairs, void** block) {
+int ost_packCorePairs(const mjModel* m, ostModel* pairs, void** block) {
   free(*block);
   *block = NULL;
   memset(pairs, 0, sizeof(*pairs));
-  int n = candidatePairs(m, NULL, t1, t2);
+  int n = candidatePairs(m, NULL, 1);
   if (n == 0) {
     return OST_OK;
   }
@@ -408,6 +415,6 @@ int ost_packTypePairs(const mjModel* m, int t1, int t2, ostModel* pairs, void** 
   pairs->pair_margin = (ostNum*)(b + ints);
   pairs->pair_gap = pairs->pair_margin + n;
   pairs->pair_friction = pairs->pair_gap + n;
-  candidatePairs(m, pairs, t1, t2);
+  candidatePairs(m, pairs, 1);
   return OST_OK;
 }

@@ -2,13 +2,14 @@
 // kinematics, transmission and collision on the private model (margins widened by the
 // look-ahead distance) and packs the constraint rows of the core solver: equality and joint
 // limit rows from MuJoCo's efc rows, contact rows from d->contact and mj_jac (except
-// cylinder-box pairs, whose contacts come from core/ost_collision_cylbox.h at MuJoCo's geom
-// poses, as in the native provider), servo rows from the actuators. Invariant: rows are produced in a deterministic order, so that evaluating the
+// cylinder-box and height field-cylinder pairs, whose contacts come from core's own functions
+// at MuJoCo's geom poses, as in the native provider), servo rows from the actuators. Invariant: rows are produced in a deterministic order, so that evaluating the
 // same q twice yields identical rows (the best iterate is re-evaluated by index).
 #include <math.h>
 #include <string.h>
 
 #include "ost_collision_cylbox.h"
+#include "ost_collision_terrain.h"
 #include "ost_internal.h"
 
 // copy efc row i of d into the dense row J (nv)
@@ -88,13 +89,9 @@ static int contactRows(ostContext* c, const mjData* d, int g1, int g2, const mjt
 }
 
 
-int ost_cylinderBox(const mjModel* m, int g1, int g2) {
-  int t1 = m->geom_type[g1], t2 = m->geom_type[g2];
-  return (t1 == mjGEOM_CYLINDER && t2 == mjGEOM_BOX) || (t1 == mjGEOM_BOX && t2 == mjGEOM_CYLINDER);
-}
-
-
-void ost_placedGeom(const mjModel* m, const mjData* d, int g, ostGeom* out) {
+// geom g of m placed at d's kinematics, as core's collision functions see it (primitive types
+// and height fields: no mesh vertices)
+static void placedGeom(const mjModel* m, const mjData* d, int g, ostGeom* out) {
   memset(out, 0, sizeof(*out));
   out->type = m->geom_type[g];
   out->rbound = m->geom_rbound[g];
@@ -103,6 +100,54 @@ void ost_placedGeom(const mjModel* m, const mjData* d, int g, ostGeom* out) {
     out->pos[i] = d->geom_xpos[3 * g + i];
   }
   memcpy(out->mat, d->geom_xmat + 9 * g, 9 * sizeof(mjtNum));
+}
+
+
+int ost_hfieldData(const mjModel* m, ostNum** buf, int* n) {
+  if (*n != m->nhfielddata) {
+    free(*buf);
+    *buf = m->nhfielddata ? malloc(m->nhfielddata * sizeof(ostNum)) : NULL;
+    *n = *buf ? m->nhfielddata : 0;
+    if (m->nhfielddata && !*buf) {
+      return OST_ERR_MEMORY;
+    }
+  }
+  for (int i = 0; i < *n; i++) {
+    (*buf)[i] = m->hfield_data[i];
+  }
+  return OST_OK;
+}
+
+
+int ost_collideCorePair(const mjModel* m, const mjData* d, const ostNum* hfield_data, int g1,
+                        int g2, ostNum margin, ostContact* con) {
+  ostGeom a, b;
+  if (m->geom_type[g1] > m->geom_type[g2]) {
+    int t = g1;
+    g1 = g2;
+    g2 = t;
+  }
+  placedGeom(m, d, g1, &a);
+  placedGeom(m, d, g2, &b);
+  if (a.type == mjGEOM_HFIELD) {
+    int id = m->geom_dataid[g1];
+    ostHField hf;
+    hf.nrow = m->hfield_nrow[id];
+    hf.ncol = m->hfield_ncol[id];
+    for (int i = 0; i < 4; i++) {
+      hf.size[i] = m->hfield_size[4 * id + i];
+    }
+    hf.data = hfield_data + m->hfield_adr[id];
+    return osti_collideHField(con, OST_MAXCONPAIR, &hf, &a, &b, margin, m->opt.mpr_tolerance,
+                              m->opt.mpr_iterations);
+  }
+  // bounding spheres apart, as MuJoCo's broadphase
+  mjtNum dx[3] = {a.pos[0] - b.pos[0], a.pos[1] - b.pos[1], a.pos[2] - b.pos[2]};
+  mjtNum reach = a.rbound + b.rbound + margin;
+  if (mju_dot3(dx, dx) > reach * reach) {
+    return 0;
+  }
+  return osti_collideCylinderBox(con, &a, &b, margin);
 }
 
 
@@ -164,11 +209,11 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
 
   // contact rows: normal then two tangents in the contact frame (frame[0:3] from geom1 to
   // geom2, so J_n u > 0 separates); contacts within the look-ahead distance are candidates.
-  // Cylinder-box pairs are MuJoCo's MPR: theirs are replaced by core's contacts (below)
+  // Core pairs (cylinder-box, height field-cylinder) are replaced by core's contacts (below)
   int status;
   for (int i = 0; i < d->ncon; i++) {
     const mjContact* con = d->contact + i;
-    if (con->exclude > 1 || ost_cylinderBox(m, con->geom1, con->geom2)) {
+    if (con->exclude > 1 || ost_corePair(m, con->geom1, con->geom2)) {
       continue;  // fused, equality-joined or without degrees of freedom; or core's pair
     }
     int fric = con->dim >= 3 && con->friction[0] > 0;
@@ -178,24 +223,16 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
       return status;
     }
   }
-  const ostModel* cb = &c->cylbox;
-  for (int p = 0; p < cb->s.npair; p++) {
-    ostGeom a, b;
+  const ostModel* cp = &c->corepairs;
+  for (int p = 0; p < cp->s.npair; p++) {
     ostContact con[OST_MAXCONPAIR];
-    int g1 = cb->pair_geom1[p], g2 = cb->pair_geom2[p];
-    ost_placedGeom(m, d, g1, &a);
-    ost_placedGeom(m, d, g2, &b);
-    mjtNum dx[3] = {a.pos[0] - b.pos[0], a.pos[1] - b.pos[1], a.pos[2] - b.pos[2]};
-    mjtNum reach = a.rbound + b.rbound + cb->pair_margin[p];
-    if (mju_dot3(dx, dx) > reach * reach) {
-      continue;  // bounding spheres apart, as MuJoCo's broadphase
-    }
-    int ncon = osti_collideCylinderBox(con, &a, &b, cb->pair_margin[p]);
-    int fric = cb->pair_condim[p] >= 3 && cb->pair_friction[p] > 0;
+    int g1 = cp->pair_geom1[p], g2 = cp->pair_geom2[p];
+    int ncon = ost_collideCorePair(m, d, c->hfield_data, g1, g2, cp->pair_margin[p], con);
+    int fric = cp->pair_condim[p] >= 3 && cp->pair_friction[p] > 0;
     for (int i = 0; i < ncon; i++) {
-      mjtNum pos = con[i].dist - (cb->pair_margin[p] - cb->pair_gap[p]) + c->opt.margin;
+      mjtNum pos = con[i].dist - (cp->pair_margin[p] - cp->pair_gap[p]) + c->opt.margin;
       if ((status = contactRows(c, d, g1, g2, con[i].pos, con[i].frame, pos,
-                                cb->pair_friction[p], fric, &n))) {
+                                cp->pair_friction[p], fric, &n))) {
         return status;
       }
     }

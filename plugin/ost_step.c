@@ -122,9 +122,10 @@ int ost_prepareContext(ostContext* c, const mjModel* m) {
   if (c->opt.geometry == OST_GEOMETRY_NATIVE) {
     return ost_nativeReady(c, m);
   }
-  // the mujoco provider collides cylinder-box pairs with core's function (ost_rows_mujoco.c)
-  if (ost_packTypePairs(mo, mjGEOM_CYLINDER, mjGEOM_BOX, &c->cylbox, &c->cylbox_block)) {
-    return ost_fail(c, OST_ERR_MEMORY, "cannot allocate the cylinder-box pair list");
+  // the mujoco provider collides core pairs with core's functions (ost_rows_mujoco.c)
+  if (ost_packCorePairs(mo, &c->corepairs, &c->corepairs_block)
+      || ost_hfieldData(mo, &c->hfield_data, &c->hfield_n)) {
+    return ost_fail(c, OST_ERR_MEMORY, "cannot allocate the core pair list");
   }
   for (int g = 0; g < m->ngeom && c->opt.margin > 0; g++) {
     if (m->geom_type[g] == mjGEOM_HFIELD) {

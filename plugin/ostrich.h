@@ -147,7 +147,8 @@ const ostStats* ost_stats(const mjData* d);
 const char* ost_lastError(const mjData* d);
 
 // Deepest penetration (m) at d's kinematics: MuJoCo's contacts in d->contact, except that
-// cylinder-box pairs are measured with Ostrich's generator (as both providers collide them).
+// cylinder-box and height field-cylinder pairs are measured with Ostrich's own generators (as
+// both providers collide them).
 double ost_maxPenetration(const mjModel* m, const mjData* d);
 
 // Release Ostrich's per-mjData state (buffers, options). Safe on unknown d.

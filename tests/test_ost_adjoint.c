@@ -400,9 +400,10 @@ START_TEST(test_memoryPerStep) {
     freeRollout(r);
   }
   ck_assert_uint_eq(tape_bytes[0], tape_bytes[1]);
-  // the heap's count also sees allocator bookkeeping of other calls (a byte or two per step)
+  // the heap's count also sees allocator bookkeeping of other calls (0 to 9 bytes per step,
+  // measured); keeping iterates would add budget x nv x 8 bytes per step (over 1,000 here)
   ck_assert_uint_le(heap_bytes[0] > heap_bytes[1] ? heap_bytes[0] - heap_bytes[1]
-                                                  : heap_bytes[1] - heap_bytes[0], 8);
+                                                  : heap_bytes[1] - heap_bytes[0], 64);
   ck_assert_uint_gt(tape_bytes[0], 0);
 }
 END_TEST

@@ -1,7 +1,8 @@
 // test_ost_collision_terrain.c: terrain collisions (ost_collision_terrain.h) against MuJoCo 2.2.2.
-// Height field: spheres, capsules, boxes, cylinders and ellipsoids at random poses over the
-// terrain of terrain_hfield.xml (level, and tilted and shifted, with and without margin) must
-// give the contacts of mj_collision: the same count and order, dist, pos and all 9 frame entries
+// Height field: spheres, capsules, boxes and ellipsoids at random poses over the terrain of
+// terrain_hfield.xml (level, and tilted and shifted, with and without margin) must give the
+// contacts of mj_collision (cylinders use Ostrich's own generator, checked in closed form by
+// test_cylinder_terrain): the same count and order, dist, pos and all 9 frame entries
 // to 1e-6. Mesh terrain: the hfield's triangulation as a mesh gives the hfield's contacts; the OBJ
 // mesh of terrain_mesh.xml (as MuJoCo loaded it, float vertices) is the hfield's surface to float
 // precision and gives the same contact counts, most contacts to 1e-5 (MPR amplifies the rounding);
@@ -106,6 +107,9 @@ static void compareHField(errStat* e, const mjModel* m, const mjData* d, const o
   ostGeom ghf, g2;
   packGeom(&ghf, m, d, 0);
   for (int gi = 1; gi < m->ngeom; gi++) {
+    if (m->geom_type[gi] == mjGEOM_CYLINDER) {
+      continue;  // Ostrich's own generator (ost_collision_cylsurf.h), test_cylinder_terrain
+    }
     ostContact con[OST_MAXCONPAIR];
     for (int i = 0; i < OST_MAXCONPAIR; i++) {
       for (int k = 0; k < 13; k++) ((ostNum*)(con + i))[k] = NAN;  // poison
@@ -484,6 +488,116 @@ START_TEST(test_mesh_scene_pair) {
 }
 END_TEST
 
+// a wheel (r 0.35, half length 0.05, axis along y, yawed by yaw about z) at (x, y, z) against a
+// 41 x 41 height field of 4 x 4 m (0.1 m cells) whose elevation is z(x) = f(x), in the world
+// frame (identity pose); contacts into con, returns the count
+static int wheelField(ostContact* con, double (*f)(double), double x, double y, double z,
+                      double yaw, double margin) {
+  static ostNum data[41 * 41];
+  for (int r = 0; r < 41; r++) {
+    for (int c = 0; c < 41; c++) {
+      data[r * 41 + c] = f(0.1 * c - 2);  // size[2] = 1: data is the elevation
+    }
+  }
+  ostHField hf = {41, 41, {2, 2, 1, 0.5}, data};
+  ostGeom ghf, cyl;
+  memset(&ghf, 0, sizeof(ghf));
+  memset(&cyl, 0, sizeof(cyl));
+  ghf.type = OST_GEOM_HFIELD;
+  ghf.mat[0] = ghf.mat[4] = ghf.mat[8] = 1;
+  cyl.type = OST_GEOM_CYLINDER;
+  cyl.size[0] = 0.35;
+  cyl.size[1] = 0.05;
+  cyl.pos[0] = x; cyl.pos[1] = y; cyl.pos[2] = z;
+  cyl.rbound = sqrt(0.35 * 0.35 + 0.05 * 0.05);
+  double cs = cos(yaw), sn = sin(yaw);
+  double ax[3] = {cs, sn, 0}, ay[3] = {0, 0, -1}, az[3] = {-sn, cs, 0};  // columns: axes
+  for (int r = 0; r < 3; r++) {
+    cyl.mat[3 * r] = ax[r]; cyl.mat[3 * r + 1] = ay[r]; cyl.mat[3 * r + 2] = az[r];
+  }
+  return osti_collideHField(con, OST_MAXCONPAIR, &hf, &ghf, &cyl, margin, 1e-6, 50);
+}
+
+static double flatField(double x) { (void)x; return 0.2; }
+static double slopeField(double x) { return 0.5 + 0.1 * x; }
+static double ridgeField(double x) { return 0.5 - 0.2 * fabs(x); }
+
+
+// closed-form wheel-terrain cases (Ostrich's own generator, ost_collision_cylsurf.h): flat, on a
+// slope, on a ridge (edge contacts); continuity while rolling over the ridge and yawing on it
+START_TEST(test_cylinder_terrain) {
+  ostContact con[OST_MAXCONPAIR];
+  const double r = 0.35;
+
+  // flat, 3 mm deep: the rims' lowest points, at y = +-0.05 around the centre
+  int n = wheelField(con, flatField, 0.23, 0.07, 0.2 + r - 0.003, 0, 0);
+  ck_assert_int_eq(n, 2);
+  for (int i = 0; i < n; i++) {
+    ck_assert_double_eq_tol(con[i].dist, -0.003, 1e-14);
+    ck_assert_double_eq_tol(con[i].frame[2], 1, 1e-14);
+    ck_assert_double_eq_tol(fabs(con[i].pos[1] - 0.07), 0.05, 1e-14);
+  }
+
+  // on the slope z = 0.5 + 0.1 x: distance of the axis from the plane minus r
+  double k = 0.1, nz = 1 / sqrt(1 + k * k), zc = 0.5 + k * 0.33 + (r - 0.002) / nz;
+  n = wheelField(con, slopeField, 0.33, 0.02, zc, 0, 0);
+  ck_assert_int_eq(n, 2);
+  for (int i = 0; i < n; i++) {
+    ck_assert_double_eq_tol(con[i].dist, -0.002, 1e-14);
+    ck_assert_double_eq_tol(con[i].frame[0], -k * nz, 1e-14);
+    ck_assert_double_eq_tol(con[i].frame[2], nz, 1e-14);
+  }
+
+  // right above the ridge x = 0 (a grid line), 4 mm deep: two edge contacts, vertical normal
+  n = wheelField(con, ridgeField, 0, 0.05, 0.5 + r - 0.004, 0, 0);
+  ck_assert_int_eq(n, 2);
+  for (int i = 0; i < n; i++) {
+    ck_assert_double_eq_tol(con[i].dist, -0.004, 1e-14);
+    ck_assert_double_eq_tol(con[i].frame[2], 1, 1e-14);
+    ck_assert_double_eq_tol(con[i].pos[0], 0, 1e-14);
+  }
+
+  // rolling over the ridge: the deepest distance is continuous (slope at most 1 in x) and so
+  // is the normal's x component
+  double prev_d = 0, prev_nx = 0, step = 1e-4, worst = 0;
+  for (int i = 0; i <= 3000; i++) {
+    double x = -0.15 + i * step;
+    double zc2 = 0.5 - 0.2 * fabs(x) + r;  // about touching
+    n = wheelField(con, ridgeField, x, 0.05, zc2 - 0.001, 0, 0.05);
+    ck_assert_int_ge(n, 1);
+    double d = 1, nx = 0;
+    for (int j = 0; j < n; j++) {
+      if (con[j].dist < d) {
+        d = con[j].dist;
+        nx = con[j].frame[0];
+      }
+    }
+    if (i > 0) {
+      worst = fmax(worst, fabs(d - prev_d) / step);
+      ck_assert_msg(fabs(nx - prev_nx) < 0.01, "normal jumps at x = %g", x);
+    }
+    prev_d = d;
+    prev_nx = nx;
+  }
+  ck_assert_double_le(worst, 1 + 1e-6);
+
+  // yawing through 0 on the ridge: two contacts throughout, distances continuous
+  double prev[2] = {0, 0};
+  for (int i = -100; i <= 100; i++) {
+    n = wheelField(con, ridgeField, 0, 0.05, 0.5 + r - 0.004, i * 1e-6, 0);
+    ck_assert_int_eq(n, 2);
+    if (i > -100) {
+      for (int j = 0; j < 2; j++) {
+        ck_assert_double_le(fabs(con[j].dist - prev[j]), 1e-6);
+      }
+    }
+    prev[0] = con[0].dist;
+    prev[1] = con[1].dist;
+  }
+}
+END_TEST
+
+
 
 START_TEST(test_scenes_rest) {
   // the robot starts resting on the hfield: touching at t = 0, still level after 1 s
@@ -512,6 +626,7 @@ int main(void) {
   tcase_add_test(tc, test_mesh_equals_hfield);
   tcase_add_test(tc, test_mesh_scene_pair);
   tcase_add_test(tc, test_scenes_rest);
+  tcase_add_test(tc, test_cylinder_terrain);
   suite_add_tcase(s, tc);
   return ost_fixtureRun(s);
 }
