@@ -11,8 +11,8 @@
 //     in the triangle; dist = n.(p - v0), its height over the plane. Every valid face is a
 //     contact (a valley gives one per side).
 //   - edge of a triangle, used only when no face of this half is valid (the half rests on a
-//     ridge): q, the edge point nearest the rim's centre moved OST_CYLBOX_INSET x hl inwards,
-//     against the cylinder by the exact point-cylinder distance (curved surface, rim circle or
+//     ridge): q, the edge point nearest the rim's deepest point along -n (the face's witness),
+//     moved OST_CYLBOX_INSET x hl inwards, against the cylinder by the exact point-cylinder distance (curved surface, rim circle or
 //     cap) and its gradient as the normal, accepted when that points out of its triangle (above
 //     the plane and beyond that edge); the half keeps its smallest one. (As for boxes: a wheel
 //     on a ridge keeps two contacts whatever its yaw.)
@@ -166,11 +166,16 @@ OST_HD int osti_cylSurfTriangle(ostCylSurf* s, const ostNum v0[3], const ostNum 
       }
     }
 
-    // edges: the edge point nearest Ci (the rim's centre moved OST_CYLBOX_INSET x hl inwards, so
-    // that an edge parallel to the axis stays on the curved surface) against the cylinder by
-    // the exact point-cylinder distance; the normal must point out of this triangle
+    // edges: the edge point nearest Ci (the rim's deepest point along -n, moved OST_CYLBOX_INSET
+    // x hl inwards so that an edge parallel to the axis stays on the curved surface) against the
+    // cylinder by the exact point-cylinder distance; where the face's witness reaches the edge
+    // this is that witness, so face and edge contacts meet; the normal must point out of this
+    // triangle
     ostNum Ci[3];
     osti_primAxpy(Ci, s->c, (1 - OST_CYLBOX_INSET) * t, s->a);
+    if (lw > OST_CYLSURF_CAP_SIN) {
+      osti_primAxpy(Ci, Ci, s->r, w);  // the rim's deepest point, inset: the face's witness
+    }
     for (int i = 0; i < 3 && s->nface[h] == 0; i++) {
       const ostNum* p = v[i];
       const ostNum* q = v[(i + 1) % 3];
