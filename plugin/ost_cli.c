@@ -221,7 +221,10 @@ static void sim_accumulate(simRun* r) {
     r->sum_residual += last >= 0 ? d->solver[last].gradient : 0;
     r->sum_iter += d->solver_iter;
   }
-  double p = ost_maxPenetration(r->m, d);
+  // Ostrich: its own contacts at q+ (native: including a terrain mesh, which MuJoCo collides as
+  // its convex hull); MuJoCo: d->contact, with Ostrich's generators for its own pairs
+  const ostStats* st = r->ostrich ? ost_stats(d) : NULL;
+  double p = st ? st->max_penetration : ost_maxPenetration(r->m, d);
   if (p > r->max_penetration) {
     r->max_penetration = p;
   }
