@@ -112,7 +112,7 @@ OST_HD void osti_tangentLinear(const ostModel* m, ostNum* dq, const ostNum* qpos
 // start (w->M = Mt unfactored, w->qfrc_explicit = f, w->qvel_prev = u-, w->h) and the rows and
 // J at q+ = q- (+) h u. Factors w->M in place and uses w->tmp, w->diag, w->Ju.
 OST_HD void osti_stepResidual(ostWorld* w, const ostNum* u, const ostNum* lambda, ostNum reg,
-                              ostNum fb_eps, ostNum* R) {
+                              ostNum creep, ostNum fb_eps, ostNum* R) {
   int nv = w->nv, nrow = w->nrow;
   ostNum h = w->h;
 
@@ -155,7 +155,7 @@ OST_HD void osti_stepResidual(ostWorld* w, const ostNum* u, const ostNum* lambda
         break;
       }
       int n = i - 1, b = i + 1;
-      ostNum kf = h * 0.5 * (w->diag[i] + w->diag[b]), cs = reg * kf;
+      ostNum kf = h * 0.5 * (w->diag[i] + w->diag[b]), cs = reg * kf + creep;
       ostNum bound = w->rows[n].mu * (lambda[n] > 0 ? lambda[n] : 0);
       ostNum z1 = lam - (w->Ju[i] + cs * lam) / kf;
       ostNum z2 = lambda[b] - (w->Ju[b] + cs * lambda[b]) / kf;

@@ -36,10 +36,11 @@ typedef struct ostSolverOptions_ {  // per-step solver settings (see ostOptions 
   ostNum pcr_tol;                   // relative PCR residual for early exit
   ostNum fb_eps;                    // FB smoothing
   ostNum reg;                       // relative compliance delta of contact and sticking rows
+  ostNum creep;                     // absolute sticking compliance (s/kg): slip = creep force
 } ostSolverOptions;
 
 #ifndef OST_NUM_TYPE  // a substituted scalar type never crosses the boundary
-OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 4 * sizeof(ostNum),
+OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNum),
                   "ostSolverOptions crosses the gcc/nvcc boundary: keep it unpadded");
 #endif
 
@@ -154,16 +155,18 @@ OST_HD void osti_rotateRows(ostNum* a, ostNum* b, ostNum e1, ostNum e2, int n) {
 // maximal dissipation written as Alart-Curnier's semismooth equation
 //   G = lambda_f - proj_{|.| <= mu lambda_n}(z),   z = lambda_f - (s + c_s lambda_f) / k_f
 // with slip s = J_f u, k_f = h (J_f Mt^-1 J_f')avg (velocity per force) and the sticking
-// compliance c_s = reg k_f, which makes the force distribution of redundant contacts unique.
+// compliance c_s = reg k_f + creep: reg k_f makes the force distribution of redundant contacts
+// unique; creep (ostOptions.friction_creep, s/kg) is a physical creep, slip = creep x force while
+// sticking, the same at every h (k_f scales with h).
 // Stick (|z| <= mu lambda_n): J_f du + c_s dlambda_f = -(s + c_s lambda_f), rotation-invariant.
 // Slide: the rows are rotated into the frame (e, e_perp) of z (W[i] = 1, W[i+1..i+2] = e); along
 // e the force is fixed on the cone (lagged lambda_n), across it the compliance weight is
 //   W = c_s + k_f (1 - beta) / beta,  beta = mu lambda_n / |z|  (W = slip / |lambda_f| at the
 // solution). Returns the squared merit |G|^2 k_f^2 (velocity units).
-OST_HD ostNum osti_frictionRows(ostWorld* w, int i, ostNum reg) {
+OST_HD ostNum osti_frictionRows(ostWorld* w, int i, ostNum reg, ostNum creep) {
   int nv = w->nv, a = i + 1, b = i + 2;
   ostNum kf = w->h * 0.5 * (w->diag[a] + w->diag[b]);
-  ostNum cs = reg * kf;
+  ostNum cs = reg * kf + creep;
   ostNum bound = w->rows[i].mu * (w->lambda[i] > 0 ? w->lambda[i] : 0);
   ostNum l1 = w->lambda[a], l2 = w->lambda[b];
   ostNum z1 = l1 - (w->Ju[a] + cs * l1) / kf, z2 = l2 - (w->Ju[b] + cs * l2) / kf;
@@ -256,7 +259,7 @@ OST_HD ostNum osti_evaluate(ostWorld* w, const ostSolverOptions* opt) {
       w->rho[i] = phi / (h * a);
       m_i = phi / h;
       if (i + 2 < nrow && w->rows[i + 1].type == OST_ROW_FRICTION && w->rows[i + 1].normal == i) {
-        merit += osti_frictionRows(w, i, opt->reg);
+        merit += osti_frictionRows(w, i, opt->reg, opt->creep);
       }
       break;
     }

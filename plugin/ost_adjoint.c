@@ -168,7 +168,8 @@ static int recordJacobian(ostContext* c, const mjModel* m, const ostRecord* r, i
   }
   ostdStep s = {&c->native, r->qpos_prev, r->qvel_prev, r->qvel, r->ctrl, r->qfrc_applied,
                 r->xfrc_applied, r->rows, r->lambda, r->head->nrow, truncate, r->head->h,
-                c->opt.margin, c->opt.regularization, c->opt.fb_eps, nparam, adr,
+                c->opt.margin, c->opt.regularization, c->opt.friction_creep, c->opt.fb_eps, nparam,
+                adr,
                 c->adj_fric_geom, c->adj_fric_weight};
   double resid;
   for (;;) {

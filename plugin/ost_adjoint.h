@@ -27,6 +27,7 @@ typedef struct ostdStep_ {        // one committed (sub)step, as the backward pa
   double        h;                // step size (s)
   double        lookahead;        // Ostrich's look-ahead distance (m)
   double        reg;              // relative compliance (ostOptions.regularization)
+  double        creep;            // sticking creep (ostOptions.friction_creep, s/kg)
   double        fb_eps;           // Fischer-Burmeister smoothing
   int           nparam;           // parameter columns (0: none)
   const int*    param_adr;        // offsets of the ostParam groups in theta (OST_NPARAM + 1)

@@ -146,7 +146,7 @@ int evaluate(Work* wk, const ostdStep* st, int col0, int ny, int nrow_expect) {
   }
   for (int i = 0; i < nv; i++) wk->w.qvel_prev[i] = wk->uprev[i];
   wk->w.h = st->h;
-  osti_stepResidual(&wk->w, wk->u, wk->lambda, st->reg, st->fb_eps, wk->R);
+  osti_stepResidual(&wk->w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R);
   return 0;
 }
 

@@ -22,6 +22,7 @@
   X(fb_eps,        0, 1e-9)                 \
   X(eq_compliance, 0, 0)                   \
   X(regularization, 0, 1e-6)               \
+  X(friction_creep, 0, 0)                  \
   X(geometry,      1, 0)
 
 void ost_defaultOptions(ostOptions* opt) {
@@ -51,6 +52,8 @@ static int validate(const ostOptions* o, char* err, int err_sz) {
     bad = "geometry must be 0 (mujoco) or 1 (native)";
   } else if (!(o->regularization >= 0) || o->regularization > 1) {
     bad = "regularization must be in [0, 1]";
+  } else if (!(o->friction_creep >= 0) || o->friction_creep > 1) {
+    bad = "friction_creep must be in [0, 1] s/kg";
   }
   if (bad) {
     if (err) snprintf(err, err_sz, "ostrich option: %s", bad);

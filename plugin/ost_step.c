@@ -220,8 +220,8 @@ static int trialIterate(ostContext* c, mjData* d, const ostSolverOptions* so, mj
 static int newton(ostContext* c, mjData* d, mjtNum h, mjtNum* residual) {
   ostWorld* w = &c->world;
   const ostOptions* o = &c->opt;
-  ostSolverOptions so = {o->newton_iter, o->pcr_iter, o->k_min, 0,
-                         o->tol,         o->pcr_tol,  o->fb_eps, o->regularization};
+  ostSolverOptions so = {o->newton_iter, o->pcr_iter, o->k_min, 0,      o->tol,
+                         o->pcr_tol,     o->fb_eps,   o->regularization, o->friction_creep};
   int nv = w->nv, status, best_k = -1, pcr = 0, k = 0;
   ostNum best = HUGE_VAL, first = 0, merit = 0;
 

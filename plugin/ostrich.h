@@ -58,6 +58,8 @@ typedef struct ostOptions_ {
   int    split_depth;             // max halvings of a step whose Newton fails        (3)
   double split_tol;               // best residual (m/s) above which a step is split  (1e-4)
   double regularization;          // relative compliance of contacts and sticking     (1e-6)
+  double friction_creep;          // sticking friction's slip velocity per newton of friction
+                                  // force (s/kg), the same at every h                  (0)
   int    geometry;                // geometry provider: OST_GEOMETRY_MUJOCO or _NATIVE (0)
 } ostOptions;
 

@@ -276,6 +276,20 @@ START_TEST(test_robotWheels) {
 END_TEST
 
 
+// the same robot with a friction creep of 1e-4 s/kg (ostOptions.friction_creep): the creep
+// enters the residual that the adjoint differentiates, so gradients stay exact
+START_TEST(test_robotWheelsCreep) {
+  ost_fixtureSetup();
+  rollout* r = newRollout("wheeled_robot.xml", 0.05, 20, 3, 3);
+  r->opt.friction_creep = 1e-4;
+  preroll(r, 10, 3);
+  double e = checkRollout(r, "robot wheels, creep 1e-4", 1e-6, 0, NULL);
+  ck_assert_double_lt(e, 4e-3);
+  freeRollout(r);
+}
+END_TEST
+
+
 // ost_transition equals central differences of one ost_step (cart-pole, box at rest, robot)
 START_TEST(test_transition) {
   ost_fixtureSetup();
@@ -443,6 +457,7 @@ int main(void) {
   tcase_add_test(tc, test_cartpole50);
   tcase_add_test(tc, test_impulsiveContact);
   tcase_add_test(tc, test_robotWheels);
+  tcase_add_test(tc, test_robotWheelsCreep);
   tcase_add_test(tc, test_checkpoint);
   tcase_add_test(tc, test_truncate);
   tcase_add_test(tc, test_memoryPerStep);

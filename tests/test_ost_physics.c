@@ -72,6 +72,42 @@ START_TEST(test_inclineSticking) {
 END_TEST
 
 
+// friction_creep c (s/kg): a sticking contact slips at c times its friction force, at every h.
+// The box on the 20 deg incline (mu = 0.5, half size a = 0.1 m) rests on 4 contacts. The
+// downhill force F = m g sin(theta) acts a below the centre, so moment balance gives the uphill
+// pair N_u = (m g cos(theta) - F) / 4 each; their share F/4 exceeds mu N_u, so they slide at
+// mu N_u, and the downhill pair sticks with f_d = (F - 2 mu N_u) / 2 each: the box creeps at
+// v = c f_d (the default regularization adds 1e-6 of a step's velocity change)
+START_TEST(test_frictionCreep) {
+  ost_fixtureSetup();
+  const double hs[3] = {1e-3, 1e-2, 1e-1}, mu = 0.5, c = 1e-3, T = 2;
+  const double th = 20 * M_PI / 180, F = 9.81 * sin(th), Nu = (9.81 * cos(th) - F) / 4;
+  const double v_true = c * (F - 2 * mu * Nu) / 2;
+  for (int ih = 0; ih < 3; ih++) {
+    double h = hs[ih];
+    int n = (int)lround(T / h);
+    mjModel* m = incline(20, mu);
+    mjData* d = mj_makeData(m);
+    ostOptions o;
+    ck_assert_int_eq(ost_readOptions(m, &o, NULL, 0), OST_OK);
+    o.timestep = h;
+    o.friction_creep = c;
+    ck_assert_int_eq(ost_setOptions(m, d, &o), OST_OK);
+    for (int k = 0; k < n; k++) {
+      ck_assert_int_eq(ost_step(m, d), OST_OK);
+    }
+    double v = hypot(d->qvel[0], d->qvel[1]);
+    printf("creep 20 deg h=%g: v = %.6g m/s, expected %.6g (rel err %.2g), %d contacts\n", h, v,
+           v_true, fabs(v - v_true) / v_true, ost_stats(d)->ncon);
+    ck_assert_int_eq(ost_stats(d)->ncon, 4);
+    ck_assert_double_lt(fabs(v - v_true) / v_true, 1e-3);
+    ost_deleteData(d);
+    mj_deleteModel(m);
+  }
+}
+END_TEST
+
+
 // sliding down a 35 deg incline with mu = 0.5: a = g (sin - mu cos), independent of h
 START_TEST(test_inclineSliding) {
   ost_fixtureSetup();
@@ -231,6 +267,7 @@ int main(void) {
   tcase_add_test(tc, test_boxRests);
   tcase_add_test(tc, test_inclineSticking);
   tcase_add_test(tc, test_inclineSliding);
+  tcase_add_test(tc, test_frictionCreep);
   tcase_add_test(tc, test_pendulumClosedForm);
   tcase_add_test(tc, test_servoAnyGain);
   tcase_add_test(tc, test_heavyOnLight);

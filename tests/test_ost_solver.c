@@ -9,7 +9,7 @@
 #include "fixture.h"
 
 static ostSolverOptions options(void) {
-  ostSolverOptions o = {16, 50, 1, 0, 1e-12, 1e-14, 1e-12, 0};
+  ostSolverOptions o = {16, 50, 1, 0, 1e-12, 1e-14, 1e-12, 0, 0};
   return o;
 }
 
