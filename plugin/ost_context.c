@@ -177,7 +177,8 @@ void ost_deleteData(mjData* d) {
 }
 
 
-double ost_maxPenetration(const mjModel* m, const mjData* d) {
+double ost_penetrationWith(const mjModel* m, const mjData* d, const ostModel* pairs,
+                           const ostNum* hfield_data) {
   double pen = 0;
   for (int i = 0; i < d->ncon; i++) {
     const mjContact* con = d->contact + i;
@@ -187,19 +188,27 @@ double ost_maxPenetration(const mjModel* m, const mjData* d) {
   }
   // core pairs (cylinder-box, height field-cylinder) by Ostrich's own functions for every
   // engine, so that runs compare on one measure (MuJoCo's MPR depth is inexact there)
+  for (int p = 0; p < pairs->s.npair; p++) {
+    ostContact con[OST_MAXCONPAIR];
+    int n = ost_collideCorePair(m, d, hfield_data, pairs->pair_geom1[p], pairs->pair_geom2[p], 0,
+                                con);
+    for (int i = 0; i < n; i++) {
+      pen = -con[i].dist > pen ? -con[i].dist : pen;
+    }
+  }
+  return pen;
+}
+
+
+double ost_maxPenetration(const mjModel* m, const mjData* d) {
   ostModel pairs;
   void* block = NULL;
   ostNum* hdata = NULL;
   int hn = 0;
-  if (ost_packCorePairs(m, &pairs, &block) == OST_OK && ost_hfieldData(m, &hdata, &hn) == OST_OK) {
-    for (int p = 0; p < pairs.s.npair; p++) {
-      ostContact con[OST_MAXCONPAIR];
-      int n = ost_collideCorePair(m, d, hdata, pairs.pair_geom1[p], pairs.pair_geom2[p], 0, con);
-      for (int i = 0; i < n; i++) {
-        pen = -con[i].dist > pen ? -con[i].dist : pen;
-      }
-    }
+  if (ost_packCorePairs(m, &pairs, &block) != OST_OK || ost_hfieldData(m, &hdata, &hn) != OST_OK) {
+    pairs.s.npair = 0;  // out of memory: MuJoCo's contacts only
   }
+  double pen = ost_penetrationWith(m, d, &pairs, hdata);
   free(block);
   free(hdata);
   return pen;

@@ -106,6 +106,11 @@ int ost_corePair(const mjModel* m, int g1, int g2);
 int ost_collideCorePair(const mjModel* m, const mjData* d, const ostNum* hfield_data, int g1,
                         int g2, ostNum margin, ostContact* con);
 
+// deepest penetration at d's kinematics (ost_maxPenetration) with the core pairs of m and m's
+// height-field data already packed (a context's corepairs and hfield_data)
+double ost_penetrationWith(const mjModel* m, const mjData* d, const ostModel* pairs,
+                           const ostNum* hfield_data);
+
 // m's height-field data as ostNum into *buf (reallocated to m->nhfielddata, *n its length)
 int ost_hfieldData(const mjModel* m, ostNum** buf, int* n);
 

@@ -571,7 +571,6 @@ int ost_step2(const mjModel* m, mjData* d) {
   mj_fwdActuation(m, d);
   mj_fwdAcceleration(m, d);
   mj_sensorAcc(m, d);
-  c->stats.max_penetration = ost_maxPenetration(m, d);
   if (c->opt.geometry == OST_GEOMETRY_NATIVE) {
     // native contacts at q+ (the best iterate's), e.g. of a terrain mesh MuJoCo cannot collide
     mjtNum pen = 0;
@@ -579,6 +578,9 @@ int ost_step2(const mjModel* m, mjData* d) {
       pen = mju_max(pen, -c->kin.contact[i].dist);
     }
     c->stats.max_penetration = pen;
+  } else {
+    // MuJoCo's contacts, and the core pairs this step packed (ost_prepareContext)
+    c->stats.max_penetration = ost_penetrationWith(m, d, &c->corepairs, c->hfield_data);
   }
   return OST_OK;
 }
