@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "ost_internal.h"
+#include "ost_step.h"
 
 // index of the first non-finite entry of x (n), or -1
 static int firstNonFinite(const mjtNum* x, int n) {
@@ -176,54 +177,60 @@ static int abortStep(ostContext* c, const mjModel* m, mjData* d, int status) {
 }
 
 
-// q = q- (+) h u into d->qpos, then the provider's rows at q
+// q = q- (+) h u into d->qpos, then the provider's rows at q. The native provider integrates
+// with core's exponential map (as the batch does, so that both give the same bits), the mujoco
+// provider with MuJoCo's; the two differ in rounding only.
 static int evalGeometry(ostContext* c, mjData* d, const mjtNum* u, mjtNum h) {
   memcpy(d->qpos, c->qpos_prev, c->mo->nq * sizeof(mjtNum));
-  mj_integratePos(c->mo, d->qpos, u, h);
   if (c->opt.geometry != OST_GEOMETRY_NATIVE) {
+    mj_integratePos(c->mo, d->qpos, u, h);
     return ost_rowsMujoco(c, d, h);
   }
+  osti_integratePos(&c->native, d->qpos, u, h);
   return ost_rowsNative(c, d, h);
 }
 
 
-// 1 if d's (time, qpos, qvel) equal bitwise the end of the last step
+// 1 if d's (time, qpos, qvel) equal the end of the last step: bitwise, except that qpos may
+// differ by the rounding of MuJoCo's in-place quaternion normalization (mj_step1 and the
+// published q+ each normalize again, which can move a component by an ulp)
 static int continuesLastStep(ostContext* c, const mjData* d) {
   const mjModel* m = c->m;
-  return c->warm_valid && c->state_end[0] == d->time
-         && !memcmp(c->state_end + 1, d->qpos, m->nq * sizeof(mjtNum))
-         && !memcmp(c->state_end + 1 + m->nq, d->qvel, m->nv * sizeof(mjtNum));
-}
-
-
-// the trial iterate base + alpha * direction: its geometry, carried multipliers and merit
-static int trialIterate(ostContext* c, mjData* d, const ostSolverOptions* so, mjtNum alpha,
-                        mjtNum* merit) {
-  ostWorld* w = &c->world;
-  int status;
-  osti_trial(w, alpha);
-  if ((status = evalGeometry(c, d, w->qvel, w->h))) {
-    return status;
+  if (!c->warm_valid || c->state_end[0] != d->time
+      || memcmp(c->state_end + 1 + m->nq, d->qvel, m->nv * sizeof(mjtNum))) {
+    return 0;
   }
-  osti_matchPrevious(w);
-  *merit = sqrt(osti_evaluate(w, so));
-  c->stats.geometry_evals++;
-  return OST_OK;
+  for (int i = 0; i < m->nq; i++) {
+    if (!(fabs(c->state_end[1 + i] - d->qpos[i]) <= 1e-14)) {
+      return 0;
+    }
+  }
+  return 1;
 }
 
 
-// the non-smooth Newton loop (paper section III-C) with a backtracking line search on the merit
-// and best-iterate backtracking; leaves the best iterate's geometry in d and its (u, lambda) in
-// the world. Line search: halve alpha until the merit falls (Armijo, sigma = 1e-4), at most
-// `linesearch` times; if no trial lowers it, the lowest trial is taken (contact sets changed
-// between trials: the Newton model was wrong there). *residual gets the best merit.
+// osti_newton's geometry callback: q = q- (+) h u into d->qpos and the provider's rows at q
+typedef struct geometryContext_ {
+  ostContext* c;
+  mjData*     d;
+} geometryContext;
+
+static int geometryCallback(void* ctx, const ostNum* u) {
+  geometryContext* g = (geometryContext*)ctx;
+  return evalGeometry(g->c, g->d, u, g->c->world.h);
+}
+
+
+// the non-smooth Newton loop (core/ost_step.h, paper section III-C) on the context's provider;
+// leaves the best iterate's geometry in d and its (u, lambda) in the world. *residual gets the
+// best merit.
 static int newton(ostContext* c, mjData* d, mjtNum h, mjtNum* residual) {
   ostWorld* w = &c->world;
   const ostOptions* o = &c->opt;
   ostSolverOptions so = {o->newton_iter, o->pcr_iter, o->k_min, 0,      o->tol,
                          o->pcr_tol,     o->fb_eps,   o->regularization, o->friction_creep};
-  int nv = w->nv, status, best_k = -1, pcr = 0, k = 0;
-  ostNum best = HUGE_VAL, first = 0, merit = 0;
+  int nv = w->nv, nrow_k[mjNSOLVER];
+  mjtNum merit_k[mjNSOLVER];
 
   // u starts from u- + h qacc_warmstart (restored by mjd_stepFD); the multipliers start from
   // the last step's if this step continues from its result (bitwise), else from zero, so that
@@ -232,78 +239,39 @@ static int newton(ostContext* c, mjData* d, mjtNum h, mjtNum* residual) {
     w->tmp[j] = w->qvel_prev[j] + h * d->qacc_warmstart[j];
   }
   osti_startStep(w, w->tmp, o->warmstart && continuesLastStep(c, d));
-  for (k = 0; k <= o->newton_iter; k++) {
-    if (k == 0) {
-      status = trialIterate(c, d, &so, 0, &merit);
-      first = merit;
-    } else {
-      ostNum base = merit, alpha = 1, lowest = HUGE_VAL, alpha_lowest = 1, alpha_last = 1;
-      pcr += osti_newtonDirection(w, &so);
-      for (int ls = 0; ls <= o->linesearch; ls++, alpha *= 0.5) {
-        if ((status = trialIterate(c, d, &so, alpha, &merit))) {
-          return status;
-        }
-        alpha_last = alpha;
-        if (merit < (1 - 1e-4 * alpha) * base) {
-          break;
-        }
-        if (merit < lowest) {
-          lowest = merit;
-          alpha_lowest = alpha;
-        }
-      }
-      if (!(merit < (1 - 1e-4 * alpha_last) * base) && alpha_lowest != alpha_last) {
-        status = trialIterate(c, d, &so, alpha_lowest, &merit);
-      }
-    }
-    if (status) {
-      return status;
-    }
-    if (!isfinite(merit)) {
-      c->stats.status |= OST_NAN;
-      break;
-    }
-    if (k < mjNSOLVER) {
-      d->solver[k].gradient = merit;
-      d->solver[k].nactive = w->nrow;
-    }
-    if (k >= o->k_min && merit < best) {
-      best = merit;
-      best_k = k;
-      memcpy(w->qvel_best, w->qvel, nv * sizeof(ostNum));
-      memcpy(w->lambda_best, w->lambda, w->nrow * sizeof(ostNum));
-    }
-    if ((k >= o->k_min && merit <= o->tol) || k == o->newton_iter) {
-      break;
-    }
+  geometryContext g = {c, d};
+  ostNewtonStats ns;
+  int status = osti_newton(w, &so, o->linesearch, geometryCallback, &g, merit_k, nrow_k,
+                           mjNSOLVER, &ns);
+  c->stats.geometry_evals += ns.geometry_evals;
+  if (ns.nonfinite) {
+    c->stats.status |= OST_NAN;
   }
-  int last_k = k;  // the loop always leaves through a break after evaluating iterate k
-  if (best_k < 0) {
-    return ost_fail(c, OST_ERR_NUMERIC, "non-finite Newton iterate at k=%d", k);
+  if (status == OST_NEWTON_NONFINITE) {
+    return ost_fail(c, OST_ERR_NUMERIC, "non-finite Newton iterate at k=%d", ns.iterates - 1);
   }
-
-  // return the best iterate: re-evaluate its geometry (deterministic, same rows)
-  if (best_k != last_k) {
-    memcpy(w->qvel, w->qvel_best, nv * sizeof(ostNum));
-    if ((status = evalGeometry(c, d, w->qvel, h))) {
-      return status;
-    }
-    memcpy(w->lambda, w->lambda_best, w->nrow * sizeof(ostNum));
+  if (status) {
+    return status;
+  }
+  int nk = ns.iterates < mjNSOLVER ? ns.iterates : mjNSOLVER;
+  for (int k = 0; k < nk && k < ns.iterates - ns.nonfinite; k++) {
+    d->solver[k].gradient = merit_k[k];
+    d->solver[k].nactive = nrow_k[k];
   }
   ostStats* st = &c->stats;
-  st->newton_iter += last_k + 1;
-  st->best_iter = best_k;
-  st->pcr_iter += pcr;
+  st->newton_iter += ns.iterates;
+  st->best_iter = ns.best;
+  st->pcr_iter += ns.pcr;
   if (st->substeps == 0) {
-    st->residual_first = first;
+    st->residual_first = ns.first;
   }
   st->nrow = w->nrow;
   st->ncon = 0;
   for (int i = 0; i < w->nrow; i++) {
     st->ncon += w->rows[i].type == OST_ROW_CONTACT;
   }
-  *residual = best;
-  d->solver_iter = last_k + 1 < mjNSOLVER ? last_k + 1 : mjNSOLVER;
+  *residual = ns.best_merit;
+  d->solver_iter = ns.iterates < mjNSOLVER ? ns.iterates : mjNSOLVER;
   return OST_OK;
 }
 

@@ -246,6 +246,56 @@ int ost_tapeBackward(ostTape* t, const mjModel* m, const ostGradOptions* go, con
 const char* ost_tapeError(const ostTape* t);
 
 
+//---------------------------------- Batches -------------------------------------------------------
+
+// Many worlds of one model stepped together on core's native geometry: every world has its own
+// state, controls and warm start, and its own outcome bits (ostStatusBit); a world that fails
+// (OST_OVERFLOW, OST_NAN, OST_CHOL_FAIL) keeps the state it had before that step and is not
+// stepped again until its state is set, and it never disturbs its neighbours. The `cpu` and
+// `cuda` devices run the same per-world code (core/ost_batch.h) and give the same results.
+// Options come from the model (ost_readOptions); the model must pass ost_checkNative.
+typedef struct ostBatch_ ostBatch;
+
+// Create nworld worlds of m at qpos0, at rest, controls 0, on device "cpu" (all cores),
+// "cpu:N" (N threads) or "cuda" (the current GPU; needs a build with -DOSTRICH_CUDA=ON).
+// Returns NULL on failure with the reason in err.
+ostBatch* ost_batchCreate(const mjModel* m, int nworld, const char* device, char* err,
+                          int err_sz);
+
+// Free a batch (NULL is ignored).
+void ost_batchDelete(ostBatch* b);
+
+// Number of worlds.
+int ost_batchWorlds(const ostBatch* b);
+
+// Set every world's state: qpos (nworld x nq) and qvel (nworld x nv); NULL = qpos0 / rest. Time,
+// warm start and outcome bits are reset.
+int ost_batchSetState(ostBatch* b, const mjtNum* qpos, const mjtNum* qvel);
+
+// Copy every world's state out: qpos (nworld x nq), qvel (nworld x nv); either may be NULL.
+int ost_batchGetState(const ostBatch* b, mjtNum* qpos, mjtNum* qvel);
+
+// Set every world's controls (nworld x nu), used by the following steps.
+int ost_batchSetCtrl(ostBatch* b, const mjtNum* ctrl);
+
+// Advance every world by one step.
+int ost_batchStep(ostBatch* b);
+
+// Advance every world by nstep steps. ctrl (nstep x nworld x nu) gives the controls of each
+// step (NULL: keep the worlds' controls); qpos (nstep x nworld x nq) and qvel (nstep x nworld x
+// nv) receive the state after each step (NULL: not kept).
+int ost_batchRollout(ostBatch* b, int nstep, const mjtNum* ctrl, mjtNum* qpos, mjtNum* qvel);
+
+// Outcome bits of every world's last step (nworld ints, ostStatusBit).
+int ost_batchStatus(const ostBatch* b, int* status);
+
+// Bytes of the batch's world memory (host for cpu, device for cuda; the model not included).
+size_t ost_batchBytes(const ostBatch* b);
+
+// Message of the batch's last failure ("" if none).
+const char* ost_batchError(const ostBatch* b);
+
+
 #ifdef __cplusplus
 }
 #endif

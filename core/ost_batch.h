@@ -1,0 +1,142 @@
+// ost_batch.h: the memory layout of a batch of worlds of one model and the per-world rollout
+// that the CPU batch (plugin/ost_batch.c, threads) and the CUDA batch (cuda/ost_batch.cu, a
+// thread per world) both run. Mirrors engine_io.c (mj_makeData's one allocation) and MuJoCo
+// Warp's leading world dimension.
+// Layout contract: one 64-byte-aligned allocation, world-major: world i's arrays start at
+// i * stride; within a world every array of OST_BATCH_ARRAYS sits at its own 64-byte-aligned
+// offset. The table is the only description of the layout: it drives the size, the pointer
+// setup and the host<->device copies of states and controls.
+// Invariant: world i's code reads the model and writes only world i's slice.
+#ifndef OSTRICH_CORE_OST_BATCH_H_
+#define OSTRICH_CORE_OST_BATCH_H_
+
+#include <stddef.h>
+
+#include "ost_hd.h"
+#include "ost_model.h"
+#include "ost_solver.h"
+#include "ost_step.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+// one world's slice (type, name, count); sizes from an ostSizes s and the row capacity nrow_max
+#define OST_BATCH_ARRAYS(X)                                                                     \
+  X(ostNum, qpos,      s.nq)                          /* generalized coordinates            */ \
+  X(ostNum, qvel,      s.nv)                          /* generalized velocities             */ \
+  X(ostNum, ctrl,      s.nu)                          /* controls of the next step          */ \
+  X(ostNum, qacc_warm, s.nv)                          /* last step's (u+ - u-) / h          */ \
+  X(ostNum, time,      1)                             /* simulated time (s)                 */ \
+  X(ostNum, residual,  1)                             /* last step's largest best merit     */ \
+  X(int,    status,    1)                             /* last step's OST_STEP_* bits        */ \
+  X(int,    warm,      1)                             /* 1: rows_warm belong to this state  */ \
+  X(int,    nrow_warm, 1)                             /* rows of the last result            */ \
+  X(int,    substeps,  1)                             /* last step's substeps               */ \
+  X(ostNum, scratch,   2 * s.nq + s.nv)               /* osti_stepNative's scratch          */ \
+  X(char,   kin,       ostu_kinSize(s))               /* kinematics and contacts (ostKin)   */ \
+  X(char,   world,     ostu_worldSize(s.nv, nrow_max)) /* Newton's arrays (ostWorld)         */
+
+typedef struct ostBatchLayout_ {  // where each array of a world sits
+  ostSizes s;                     // the model's sizes
+  int    nrow_max;                // row capacity of a world
+  int    nworld;                  // worlds
+  size_t stride;                  // bytes from one world to the next (64-byte multiple)
+  size_t total;                   // bytes of the whole allocation (nworld x stride)
+#define X(type, name, n) size_t name;  // offset of the array within a world (bytes)
+  OST_BATCH_ARRAYS(X)
+#undef X
+} ostBatchLayout;
+
+typedef struct ostBatchView_ {    // world i's arrays
+#define X(type, name, n) type* name;
+  OST_BATCH_ARRAYS(X)
+#undef X
+} ostBatchView;
+
+
+// the layout of nworld worlds of a model with sizes s and row capacity nrow_max
+OST_HD void ostu_batchLayout(ostBatchLayout* L, ostSizes s, int nrow_max, int nworld) {
+  size_t off = 0;
+  L->s = s;
+  L->nrow_max = nrow_max;
+  L->nworld = nworld;
+#define X(type, name, n)                                     \
+  L->name = off;                                             \
+  off += OST_ALIGN64((size_t)(n) * sizeof(type));
+  OST_BATCH_ARRAYS(X)
+#undef X
+  L->stride = off;
+  L->total = off * (size_t)nworld;
+}
+
+
+// world i's arrays in the allocation at base
+OST_HD void ostu_batchView(ostBatchView* v, const ostBatchLayout* L, char* base, int i) {
+  char* p = base + (size_t)i * L->stride;
+#define X(type, name, n) v->name = (type*)(p + L->name);
+  OST_BATCH_ARRAYS(X)
+#undef X
+}
+
+
+// 1 if the n numbers are finite
+OST_HD int osti_allFinite(const ostNum* x, int n) {
+  for (int i = 0; i < n; i++) {
+    if (!isfinite(x[i])) {
+      return 0;
+    }
+  }
+  return 1;
+}
+
+
+// T steps of world i. Sequences are step-major, world-minor (T x nworld x n): before step t
+// world i's controls are ctrl_seq[(t nworld + i) nu ..] (NULL: keep the world's ctrl); after
+// step t its qpos and qvel go to qpos_out[(t nworld + i) nq ..] and qvel_out[(t nworld + i) nv
+// ..] (NULL: not kept). A world whose status has a failure bit is not stepped (its outputs
+// repeat its state) until its state is set again; a step with non-finite state or controls is
+// not taken and sets OST_STEP_NAN.
+OST_HD void osti_batchRollout(const ostModel* m, const ostBatchLayout* L, char* base, int i,
+                              const ostStepSettings* set, int T, const ostNum* ctrl_seq,
+                              ostNum* qpos_out, ostNum* qvel_out) {
+  ostSizes s = L->s;
+  size_t nw = (size_t)L->nworld;
+  ostBatchView v;
+  ostKin k;
+  ostWorld w;
+  ostu_batchView(&v, L, base, i);
+  ostu_kinInit(&k, v.kin, s);
+  ostu_worldInit(&w, v.world, s.nv, L->nrow_max, set->h);
+  w.nrow_warm = *v.nrow_warm;
+  for (int t = 0; t < T; t++) {
+    if (ctrl_seq) {
+      for (int a = 0; a < s.nu; a++) v.ctrl[a] = ctrl_seq[(t * nw + i) * s.nu + a];
+    }
+    if (!(*v.status & OST_STEP_FAILED)) {
+      if (!osti_allFinite(v.qpos, s.nq) || !osti_allFinite(v.qvel, s.nv)
+          || !osti_allFinite(v.ctrl, s.nu)) {
+        *v.status = OST_STEP_NAN;
+      } else {
+        *v.status = osti_stepNative(m, &k, &w, v.qpos, v.qvel, v.ctrl, v.qacc_warm, v.warm,
+                                    v.scratch, set, v.substeps, v.residual);
+        if (!(*v.status & OST_STEP_FAILED)) {
+          *v.time += set->h;
+        }
+      }
+    }
+    if (qpos_out) {
+      for (int a = 0; a < s.nq; a++) qpos_out[(t * nw + i) * s.nq + a] = v.qpos[a];
+    }
+    if (qvel_out) {
+      for (int a = 0; a < s.nv; a++) qvel_out[(t * nw + i) * s.nv + a] = v.qvel[a];
+    }
+  }
+  *v.nrow_warm = w.nrow_warm;
+}
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif  // OSTRICH_CORE_OST_BATCH_H_

@@ -1,0 +1,305 @@
+// ost_step.h: one Ostrich step of one world (DESIGN.md section 1; paper section III-C), the
+// driver above ost_solver.h. Mirrors engine_forward.c's mj_step for the implicit step:
+//   osti_newton      the non-smooth Newton loop with a backtracking line search on the merit
+//                    and best-iterate backtracking, for any geometry provider (a callback:
+//                    the plugin's mujoco and native providers, core's native geometry below)
+//   osti_stepNative  a whole step on core's own geometry, without MuJoCo: start forces and mass
+//                    at (q-, u-), Newton at q+ = q- (+) h u+, step splitting, commit. The CPU
+//                    batch (plugin/ost_batch.c) and the CUDA kernels (cuda/ost_batch.cu) run it.
+// Invariant: writes only the world, kinematics and state arrays it is given; no allocation.
+#ifndef OSTRICH_CORE_OST_STEP_H_
+#define OSTRICH_CORE_OST_STEP_H_
+
+#include <math.h>
+
+#include "ost_adjoint.h"
+#include "ost_hd.h"
+#include "ost_model.h"
+#include "ost_rows_native.h"
+#include "ost_solver.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+// geometry of a Newton iterate u: q = q- (+) h u and the provider's rows at q into the world;
+// returns 0 or the provider's own nonzero status, which ends the Newton loop
+typedef int (*ostGeometryFn)(void* ctx, const ostNum* u);
+
+// the Newton loop ended without one finite iterate
+#define OST_NEWTON_NONFINITE (-1)
+
+typedef struct ostNewtonStats_ {  // one Newton loop's outcome
+  int    iterates;                // iterates evaluated (last k + 1)
+  int    best;                    // index of the returned iterate
+  int    pcr;                     // Krylov (PCR or GMRES) iterations, all iterates
+  int    geometry_evals;          // trial geometries evaluated
+  int    nonfinite;               // 1 if an iterate's merit was not finite
+  int    pad;
+  ostNum first;                   // merit of iterate 0 (m/s)
+  ostNum best_merit;              // merit of the returned iterate (m/s)
+} ostNewtonStats;
+
+
+// trial iterate base + alpha * direction: its geometry, carried multipliers and merit
+OST_HD int osti_trialIterate(ostWorld* w, const ostSolverOptions* so, ostNum alpha,
+                             ostGeometryFn geom, void* ctx, ostNum* merit, ostNewtonStats* st) {
+  osti_trial(w, alpha);
+  int status = geom(ctx, w->qvel);
+  if (status) {
+    return status;
+  }
+  osti_matchPrevious(w);
+  *merit = sqrt(osti_evaluate(w, so));
+  st->geometry_evals++;
+  return 0;
+}
+
+
+// the non-smooth Newton loop from the start osti_startStep set: iterates k = 0..newton_iter,
+// each a direction (PCR/GMRES on the Schur system) and a line search that halves alpha until
+// the merit falls (Armijo, sigma = 1e-4), at most `linesearch` times; if no trial lowers it the
+// lowest trial is taken (the contact set changed between trials: the Newton model was wrong
+// there). Stops at merit <= tol once k >= k_min. Leaves the best iterate (k >= k_min) with its
+// geometry in the world (re-evaluated if it is not the last: the rows are deterministic).
+// merit_k / nrow_k (optional, nk entries) get each iterate's merit and row count.
+// Returns 0, the geometry's status, or OST_NEWTON_NONFINITE.
+OST_HD int osti_newton(ostWorld* w, const ostSolverOptions* so, int linesearch, ostGeometryFn geom,
+                       void* ctx, ostNum* merit_k, int* nrow_k, int nk, ostNewtonStats* st) {
+  int nv = w->nv, status = 0, best_k = -1, k;
+  ostNum best = HUGE_VAL, merit = 0;
+  st->pcr = 0;
+  st->geometry_evals = 0;
+  st->nonfinite = 0;
+  for (k = 0; k <= so->newton_iter; k++) {
+    if (k == 0) {
+      status = osti_trialIterate(w, so, 0, geom, ctx, &merit, st);
+      st->first = merit;
+    } else {
+      ostNum base = merit, alpha = 1, lowest = HUGE_VAL, alpha_lowest = 1, alpha_last = 1;
+      st->pcr += osti_newtonDirection(w, so);
+      for (int ls = 0; ls <= linesearch; ls++, alpha *= 0.5) {
+        if ((status = osti_trialIterate(w, so, alpha, geom, ctx, &merit, st))) {
+          return status;
+        }
+        alpha_last = alpha;
+        if (merit < (1 - 1e-4 * alpha) * base) {
+          break;
+        }
+        if (merit < lowest) {
+          lowest = merit;
+          alpha_lowest = alpha;
+        }
+      }
+      if (!(merit < (1 - 1e-4 * alpha_last) * base) && alpha_lowest != alpha_last) {
+        status = osti_trialIterate(w, so, alpha_lowest, geom, ctx, &merit, st);
+      }
+    }
+    if (status) {
+      return status;
+    }
+    if (!isfinite(merit)) {
+      st->nonfinite = 1;
+      break;
+    }
+    if (k < nk) {
+      if (merit_k) merit_k[k] = merit;
+      if (nrow_k) nrow_k[k] = w->nrow;
+    }
+    if (k >= so->k_min && merit < best) {
+      best = merit;
+      best_k = k;
+      for (int j = 0; j < nv; j++) w->qvel_best[j] = w->qvel[j];
+      for (int i = 0; i < w->nrow; i++) w->lambda_best[i] = w->lambda[i];
+    }
+    if ((k >= so->k_min && merit <= so->tol) || k == so->newton_iter) {
+      break;
+    }
+  }
+  st->iterates = k + 1;  // the loop always leaves through a break after evaluating iterate k
+  st->best = best_k;
+  st->best_merit = best;
+  if (best_k < 0) {
+    return OST_NEWTON_NONFINITE;
+  }
+
+  // return the best iterate: re-evaluate its geometry (deterministic, same rows)
+  if (best_k != k) {
+    for (int j = 0; j < nv; j++) w->qvel[j] = w->qvel_best[j];
+    if ((status = geom(ctx, w->qvel))) {
+      return status;
+    }
+    for (int i = 0; i < w->nrow; i++) w->lambda[i] = w->lambda_best[i];
+  }
+  return 0;
+}
+
+
+//---------------------------------- A whole step on core's geometry -------------------------------
+
+// outcome bits of a world's step: ostrich.h's ostStatusBits, written identically by the CPU
+// and GPU batches
+#define OST_STEP_NOT_CONVERGED 1  // best merit above tol after the Newton budget
+#define OST_STEP_OVERFLOW      2  // contact or row capacity exceeded (the step was not taken)
+#define OST_STEP_NAN           4  // non-finite input or iterate (the step was not taken)
+#define OST_STEP_CHOL_FAIL     8  // M + h D not positive definite (the step was not taken)
+#define OST_STEP_FAILED (OST_STEP_OVERFLOW | OST_STEP_NAN | OST_STEP_CHOL_FAIL)
+
+// deepest step splitting osti_stepNative supports (ostOptions.split_depth is at most 10)
+#define OST_SPLIT_MAX 10
+
+typedef struct ostStepSettings_ { // what a native step needs besides the model and state
+  ostSolverOptions so;            // Newton and PCR settings
+  int    linesearch;              // halvings of the line search
+  int    split_depth;             // deepest splitting of a step whose merit stays above split_tol
+  int    warmstart;               // 1: multipliers start from the last step's result
+  int    pad;
+  ostNum h;                       // step (s)
+  ostNum split_tol;               // merit above which a step is redone as two halves (m/s)
+  ostNum lookahead;               // contacts are reported up to this gap (m)
+} ostStepSettings;
+
+typedef struct ostNativeGeometry_ { // the context of osti_nativeGeometry
+  const ostModel* m;
+  ostKin*         k;
+  ostWorld*       w;
+  const ostNum*   qpos_prev;      // q- (nq)
+  ostNum*         qpos;           // q = q- (+) h u (nq, written)
+  const ostNum*   ctrl;           // controls (nu)
+  ostNum          lookahead;      // look-ahead distance (m)
+} ostNativeGeometry;
+
+
+// core's geometry provider: q = q- (+) h u, then kinematics, collision and rows at q
+OST_HD int osti_nativeGeometry(void* ctx, const ostNum* u) {
+  ostNativeGeometry* g = (ostNativeGeometry*)ctx;
+  for (int i = 0; i < g->m->s.nq; i++) {
+    g->qpos[i] = g->qpos_prev[i];
+  }
+  osti_integratePos(g->m, g->qpos, u, g->w->h);
+  return osti_nativeIterate(g->m, g->k, g->w, g->qpos, g->ctrl, g->lookahead, g->w->h);
+}
+
+
+// one substep of size h from (qpos, qvel) = (q-, u-): returns OST_STEP_* bits of a failure (the
+// state is then undefined) or 0 with Newton's outcome in st. qpos_prev (nq) gets q-; the world
+// keeps q-'s u- and the result's (u+, lambda, rows).
+OST_HD int osti_substepNative(const ostModel* m, ostKin* k, ostWorld* w, ostNum* qpos,
+                              const ostNum* qvel, const ostNum* ctrl, const ostNum* qacc_warm,
+                              ostNum* qpos_prev, const ostStepSettings* set, ostNum h, int warm,
+                              ostNewtonStats* st) {
+  int nv = m->s.nv;
+  w->h = h;
+  w->lookahead = set->lookahead;
+  for (int i = 0; i < m->s.nq; i++) qpos_prev[i] = qpos[i];
+  for (int j = 0; j < nv; j++) w->qvel_prev[j] = qvel[j];
+  osti_nativeStart(m, k, w, qpos, qvel, ctrl, NULL, NULL, h);
+  if (osti_factorMass(w)) {
+    return OST_STEP_CHOL_FAIL;
+  }
+
+  // u starts from u- + h qacc_warm; the multipliers from the last result if warm
+  for (int j = 0; j < nv; j++) {
+    w->tmp[j] = qvel[j] + h * qacc_warm[j];
+  }
+  osti_startStep(w, w->tmp, warm);
+  ostNativeGeometry g = {m, k, w, qpos_prev, qpos, ctrl, set->lookahead};
+  int status = osti_newton(w, &set->so, set->linesearch, osti_nativeGeometry, &g, NULL, NULL, 0,
+                           st);
+  if (status == OST_ROWS_ROW_OVERFLOW || status == OST_ROWS_CONTACT_OVERFLOW) {
+    return OST_STEP_OVERFLOW;
+  }
+  return status ? OST_STEP_NAN : 0;
+}
+
+
+// qpos's quaternions times 1/|q| (mj_normalizeQuat, rounded as mju_normalize4). MuJoCo does
+// this in place whenever it evaluates positions, so ost_step sees it at the start of a step
+// (mj_step1) and leaves it at the end (the published q+); a native step does both, so that its
+// bits equal ost_step's with the native provider
+OST_HD void osti_normalizeQuat(const ostModel* m, ostNum* qpos) {
+  for (int j = 0; j < m->s.njnt; j++) {
+    int type = m->jnt_type[j];
+    if (type == OST_JNT_FREE || type == OST_JNT_BALL) {
+      ostNum* q = qpos + m->jnt_qposadr[j] + (type == OST_JNT_FREE ? 3 : 0);
+      ostNum n = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+      if (n < OST_MINVAL) {
+        q[0] = 1; q[1] = 0; q[2] = 0; q[3] = 0;
+      } else {
+        ostNum inv = 1 / n;
+        q[0] *= inv; q[1] *= inv; q[2] *= inv; q[3] *= inv;
+      }
+    }
+  }
+}
+
+
+// one Ostrich step of size set->h on core's geometry, in place on (qpos, qvel, qacc_warm).
+// Splitting (as the plugin's advance): a step whose best merit stays above split_tol is redone
+// from its start as two half steps, up to split_depth levels; the recursion runs on a stack of
+// depths (both halves of a split have the same depth). `warm` (0/1, in and out) says whether
+// the world's last result (rows_warm) belongs to this state. scratch: 2 nq + nv numbers.
+// Returns OST_STEP_* bits: on a failure bit the state is restored to the step's start.
+// *substeps and *worst get the substeps taken and their largest best merit.
+OST_HD int osti_stepNative(const ostModel* m, ostKin* k, ostWorld* w, ostNum* qpos, ostNum* qvel,
+                           const ostNum* ctrl, ostNum* qacc_warm, int* warm, ostNum* scratch,
+                           const ostStepSettings* set, int* substeps, ostNum* worst) {
+  int nq = m->s.nq, nv = m->s.nv, stack[OST_SPLIT_MAX + 2], top = 0, bits = 0;
+  ostNum* qpos_prev = scratch;       // q- of the substep (nq)
+  ostNum* qpos_start = scratch + nq; // the step's start, for a failure (nq, then nv)
+  osti_normalizeQuat(m, qpos);
+  for (int i = 0; i < nq; i++) qpos_start[i] = qpos[i];
+  for (int j = 0; j < nv; j++) qpos_start[nq + j] = qvel[j];
+  *substeps = 0;
+  *worst = 0;
+  stack[top++] = 0;
+  while (top > 0 && !(bits & OST_STEP_FAILED)) {
+    int depth = stack[--top];
+    ostNum h = set->h;
+    for (int d = 0; d < depth; d++) h *= 0.5;
+    ostNewtonStats st;
+    int fail = osti_substepNative(m, k, w, qpos, qvel, ctrl, qacc_warm, qpos_prev, set, h,
+                                  *warm && set->warmstart, &st);
+    if (fail) {
+      bits |= fail;
+      break;
+    }
+    if (st.best_merit > set->split_tol && depth < set->split_depth) {
+      // redo from this substep's start as two halves
+      for (int i = 0; i < nq; i++) qpos[i] = qpos_prev[i];
+      stack[top++] = depth + 1;
+      stack[top++] = depth + 1;
+      continue;
+    }
+
+    // commit (q+, u+): qpos holds q- (+) h u+ from the best iterate's geometry
+    for (int j = 0; j < nv; j++) {
+      qacc_warm[j] = (w->qvel[j] - w->qvel_prev[j]) / h;
+      qvel[j] = w->qvel[j];
+    }
+    osti_saveWarm(w);
+    *warm = 1;
+    (*substeps)++;
+    if (st.best_merit > *worst) {
+      *worst = st.best_merit;
+    }
+    if (st.best_merit > set->so.tol) {
+      bits |= OST_STEP_NOT_CONVERGED;
+    }
+  }
+  if (bits & OST_STEP_FAILED) {
+    for (int i = 0; i < nq; i++) qpos[i] = qpos_start[i];
+    for (int j = 0; j < nv; j++) qvel[j] = qpos_start[nq + j];
+    *warm = 0;
+    return bits;
+  }
+
+  osti_normalizeQuat(m, qpos);
+  return bits;
+}
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif  // OSTRICH_CORE_OST_STEP_H_

@@ -1,0 +1,233 @@
+// test_ost_batch.c: the batched API (plugin/ost_batch.c, core/ost_batch.h) on the CPU:
+// a batch world steps as ost_step with the native provider does; a mixed batch (different
+// states and controls, a world with a NaN control, a world that overflows its contact capacity)
+// gives every world the result it gets alone, for any number of threads, and failed worlds keep
+// their state; bad arguments and devices are refused with a message.
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "fixture.h"
+#include "ost_batch.h"
+#include "ostrich.h"
+
+// largest |a - b| over n numbers
+static double maxDiff(const mjtNum* a, const mjtNum* b, int n) {
+  double e = 0;
+  for (int i = 0; i < n; i++) {
+    e = fmax(e, fabs(a[i] - b[i]));
+  }
+  return e;
+}
+
+
+// the mixed batch: world i starts at qpos0 shifted by (0.15 i, 0.05 i) m and yawed by 0.03 i
+// rad; worlds 0 and 1 rest (controls 0), world i >= 2 drives at 0.6 (i - 1) rad/s with a
+// differential of 0.2 i; world `nan_world` gets a NaN control at step `nan_step`
+static void mixedStart(const mjModel* m, int nworld, mjtNum* qpos, mjtNum* ctrl, int nstep,
+                       int nan_world, int nan_step) {
+  for (int i = 0; i < nworld; i++) {
+    mjtNum* q = qpos + i * m->nq;
+    memcpy(q, m->qpos0, m->nq * sizeof(mjtNum));
+    q[0] += 0.15 * i;
+    q[1] += 0.05 * i;
+    mjtNum yaw = 0.03 * i;
+    q[3] = cos(yaw / 2);
+    q[6] = sin(yaw / 2);
+    for (int t = 0; t < nstep; t++) {
+      mjtNum* u = ctrl + (t * nworld + i) * m->nu;
+      for (int a = 0; a < m->nu; a++) {
+        u[a] = i < 2 ? 0 : 0.6 * (i - 1) + (a == 0 ? -0.1 : 0.1) * i;
+      }
+      if (i == nan_world && t == nan_step) u[0] = NAN;
+    }
+  }
+}
+
+
+// a batch world equals ost_step with the native provider bitwise, step by step (the robot climbs
+// the box and splits steps)
+START_TEST(test_batchEqualsStep) {
+  ost_fixtureSetup();
+  mjModel* m = ost_fixtureLoadModel("robot_box.xml");
+  mjData* d = mj_makeData(m);
+  ostOptions o;
+  ck_assert_int_eq(ost_readOptions(m, &o, NULL, 0), OST_OK);
+  o.geometry = OST_GEOMETRY_NATIVE;
+  ck_assert_int_eq(ost_setOptions(m, d, &o), OST_OK);
+  char err[1000];
+  ostBatch* b = ost_batchCreate(m, 1, "cpu:1", err, sizeof(err));
+  ck_assert_msg(b != NULL, "%s", err);
+  mjtNum qpos[64], qvel[64], ctrl[3] = {3, 3.2, 3};
+  for (int a = 0; a < m->nu; a++) d->ctrl[a] = ctrl[a];
+  ck_assert_int_eq(ost_batchSetCtrl(b, ctrl), OST_OK);
+  double worst = 0;
+  int nstep = 40;  // 4 s at h = 0.1 s: on the box at x = 1 m and over it
+  for (int k = 0; k < nstep; k++) {
+    ck_assert_int_eq(ost_step(m, d), OST_OK);
+    ck_assert_int_eq(ost_batchStep(b), OST_OK);
+    ck_assert_int_eq(ost_batchGetState(b, qpos, qvel), OST_OK);
+    worst = fmax(worst, fmax(maxDiff(qpos, d->qpos, m->nq), maxDiff(qvel, d->qvel, m->nv)));
+  }
+  int status;
+  ck_assert_int_eq(ost_batchStatus(b, &status), OST_OK);
+  printf("batch vs ost_step (native), robot_box 40 steps: max |diff| %.3g, x %.3f m, status %d\n",
+         worst, d->qpos[0], status);
+  ck_assert_double_gt(d->qpos[0], 2.0);  // it crossed the box
+  ck_assert_int_eq(status & ~OST_NOT_CONVERGED, 0);
+  // the same functions in the same order: the same bits
+  ck_assert_double_eq(worst, 0);
+  ost_batchDelete(b);
+  ost_deleteData(d);
+  mj_deleteModel(m);
+}
+END_TEST
+
+
+// run the mixed batch of nworld worlds on device for nstep steps; outputs as ost_batchRollout
+static void runMixed(const mjModel* m, const char* device, int nworld, int nstep,
+                     const mjtNum* qpos0, const mjtNum* ctrl, mjtNum* qpos, mjtNum* qvel,
+                     int* status) {
+  char err[1000];
+  ostBatch* b = ost_batchCreate(m, nworld, device, err, sizeof(err));
+  ck_assert_msg(b != NULL, "%s", err);
+  ck_assert_int_eq(ost_batchSetState(b, qpos0, NULL), OST_OK);
+  ck_assert_int_eq(ost_batchRollout(b, nstep, ctrl, qpos, qvel), OST_OK);
+  ck_assert_int_eq(ost_batchStatus(b, status), OST_OK);
+  ost_batchDelete(b);
+}
+
+
+// mixed batch: each world's trajectory equals its own single-world run bitwise, for 1, 2 and 3
+// threads; the NaN world stops with OST_NAN and keeps its state; a capacity of 4 contacts
+// overflows for the worlds that reach the box edge and only for them
+START_TEST(test_batchMixed) {
+  ost_fixtureSetup();
+  mjModel* m = ost_fixtureLoadModel("robot_box.xml");
+  m->nconmax = 7;  // 6 on flat ground (two per wheel); a wheel on the box edge adds more
+  int nworld = 7, nstep = 30, nan_world = 1, nan_step = 10, nq = m->nq, nv = m->nv;
+  mjtNum* q0 = (mjtNum*)calloc(nworld * nq, sizeof(mjtNum));
+  mjtNum* ctrl = (mjtNum*)calloc(nstep * nworld * m->nu, sizeof(mjtNum));
+  mjtNum* qpos[3];
+  mjtNum* qvel[3];
+  int status[3][8];
+  mixedStart(m, nworld, q0, ctrl, nstep, nan_world, nan_step);
+  const char* devices[3] = {"cpu:1", "cpu:2", "cpu:3"};
+  for (int r = 0; r < 3; r++) {
+    qpos[r] = (mjtNum*)calloc(nstep * nworld * nq, sizeof(mjtNum));
+    qvel[r] = (mjtNum*)calloc(nstep * nworld * nv, sizeof(mjtNum));
+    runMixed(m, devices[r], nworld, nstep, q0, ctrl, qpos[r], qvel[r], status[r]);
+  }
+
+  // thread counts agree bitwise
+  for (int r = 1; r < 3; r++) {
+    ck_assert_int_eq(memcmp(qpos[0], qpos[r], nstep * nworld * nq * sizeof(mjtNum)), 0);
+    ck_assert_int_eq(memcmp(qvel[0], qvel[r], nstep * nworld * nv * sizeof(mjtNum)), 0);
+    ck_assert_int_eq(memcmp(status[0], status[r], nworld * sizeof(int)), 0);
+  }
+
+  // each world alone gives the same trajectory
+  mjtNum* q1 = (mjtNum*)calloc(nstep * nq, sizeof(mjtNum));
+  mjtNum* v1 = (mjtNum*)calloc(nstep * nv, sizeof(mjtNum));
+  mjtNum* c1 = (mjtNum*)calloc(nstep * m->nu, sizeof(mjtNum));
+  int overflowed = 0, clean = 0;
+  for (int i = 0; i < nworld; i++) {
+    int s1;
+    for (int t = 0; t < nstep; t++) {
+      memcpy(c1 + t * m->nu, ctrl + (t * nworld + i) * m->nu, m->nu * sizeof(mjtNum));
+    }
+    runMixed(m, "cpu:1", 1, nstep, q0 + i * nq, c1, q1, v1, &s1);
+    for (int t = 0; t < nstep; t++) {
+      ck_assert_int_eq(memcmp(q1 + t * nq, qpos[0] + (t * nworld + i) * nq, nq * sizeof(mjtNum)),
+                       0);
+      ck_assert_int_eq(memcmp(v1 + t * nv, qvel[0] + (t * nworld + i) * nv, nv * sizeof(mjtNum)),
+                       0);
+    }
+    ck_assert_int_eq(s1, status[0][i]);
+    overflowed += (status[0][i] & OST_OVERFLOW) != 0;
+    clean += (status[0][i] & ~OST_NOT_CONVERGED) == 0;
+    printf("mixed world %d: status %d, x %.3f m at the end\n", i, status[0][i],
+           qpos[0][((nstep - 1) * nworld + i) * nq]);
+  }
+
+  // the NaN world: OST_NAN from step nan_step on, its state frozen at the step before
+  ck_assert_int_eq(status[0][nan_world], OST_NAN);
+  for (int t = nan_step; t < nstep; t++) {
+    ck_assert_int_eq(memcmp(qpos[0] + (t * nworld + nan_world) * nq,
+                            qpos[0] + ((nan_step - 1) * nworld + nan_world) * nq,
+                            nq * sizeof(mjtNum)), 0);
+  }
+  ck_assert_int_gt(overflowed, 0);
+  ck_assert_int_gt(clean, 0);
+  for (int r = 0; r < 3; r++) {
+    free(qpos[r]);
+    free(qvel[r]);
+  }
+  free(q0);
+  free(ctrl);
+  free(q1);
+  free(v1);
+  free(c1);
+  mj_deleteModel(m);
+}
+END_TEST
+
+
+// refused: bad arguments, unknown devices, cuda without a CUDA build, models native cannot do
+START_TEST(test_batchErrors) {
+  ost_fixtureSetup();
+  mjModel* m = ost_fixtureLoadModel("robot_box.xml");
+  char err[1000];
+  ck_assert_ptr_null(ost_batchCreate(NULL, 4, "cpu", err, sizeof(err)));
+  ck_assert_ptr_nonnull(strstr(err, "no model"));
+  ck_assert_ptr_null(ost_batchCreate(m, 0, "cpu", err, sizeof(err)));
+  ck_assert_ptr_nonnull(strstr(err, "nworld"));
+  ck_assert_ptr_null(ost_batchCreate(m, 4, "tpu", err, sizeof(err)));
+  ck_assert_ptr_nonnull(strstr(err, "unknown device 'tpu'"));
+  ck_assert_ptr_null(ost_batchCreate(m, 4, "cpu:0", err, sizeof(err)));
+  ostBatch* b = ost_batchCreate(m, 4, "cuda", err, sizeof(err));
+  if (!b) {
+    printf("cuda: %s\n", err);
+    ck_assert_msg(strstr(err, "without CUDA") || strstr(err, "cuda") || strstr(err, "CUDA"),
+                  "%s", err);
+  }
+  ost_batchDelete(b);
+  ck_assert_int_eq(ost_batchStep(NULL), -1);
+  ck_assert_int_eq(ost_batchSetState(NULL, NULL, NULL), -1);
+  b = ost_batchCreate(m, 2, "cpu", err, sizeof(err));
+  ck_assert_ptr_nonnull(b);
+  ck_assert_int_eq(ost_batchRollout(b, -1, NULL, NULL, NULL), -2);
+  ck_assert_int_eq(ost_batchSetCtrl(b, NULL), -2);
+  ck_assert_int_eq(ost_batchStatus(b, NULL), -2);
+  ost_batchDelete(b);
+  mj_deleteModel(m);
+
+  // a model the native provider cannot represent names the reason
+  mjModel* e = ost_fixtureLoadString(
+      "<mujoco><worldbody><body mocap=\"true\"><geom type=\"box\" size=\"0.1 0.1 0.1\"/>"
+      "</body><body pos=\"1 0 0\"><freejoint/><geom type=\"sphere\" size=\"0.1\"/>"
+      "</body></worldbody></mujoco>");
+  ck_assert_ptr_null(ost_batchCreate(e, 2, "cpu", err, sizeof(err)));
+  printf("refused: %s\n", err);
+  ck_assert_ptr_nonnull(strstr(err, "mocap"));
+  mj_deleteModel(e);
+}
+END_TEST
+
+
+static Suite* suite(void) {
+  Suite* s = suite_create("ost_batch");
+  TCase* tc = tcase_create("batch");
+  tcase_set_timeout(tc, 600);
+  tcase_add_test(tc, test_batchEqualsStep);
+  tcase_add_test(tc, test_batchMixed);
+  tcase_add_test(tc, test_batchErrors);
+  suite_add_tcase(s, tc);
+  return s;
+}
+
+
+int main(void) {
+  return ost_fixtureRun(suite());
+}
