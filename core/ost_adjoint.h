@@ -22,6 +22,7 @@
 #include "ost_constraint.h"
 #include "ost_hd.h"
 #include "ost_kinematics.h"
+#include "ost_math.h"
 #include "ost_model.h"
 #include "ost_solver.h"
 #include "ost_util_dense.h"
@@ -39,8 +40,8 @@ OST_HD void osti_quatIntegrate(ostNum q[4], const ostNum v[3]) {
   ostNum dq[4];
   if (t2 > 1e-12) {
     ostNum t = sqrt(t2);
-    ostNum s = sin(0.5 * t) / t;
-    dq[0] = cos(0.5 * t);
+    ostNum s = ostu_sin(0.5 * t) / t;
+    dq[0] = ostu_cos(0.5 * t);
     dq[1] = s * v[0];
     dq[2] = s * v[1];
     dq[3] = s * v[2];

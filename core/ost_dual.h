@@ -31,6 +31,8 @@
 
 #include <type_traits>
 
+#include "ost_math.h"
+
 #ifdef __CUDACC__
 #define OST_DUAL_HD __host__ __device__ inline
 #else
@@ -124,6 +126,13 @@ struct ostDual {
     return chain(x, ::fabs(x.v), x.v > 0 ? 1 : (x.v < 0 ? -1 : 0));  // 0 at 0 (convention)
   }
   friend OST_DUAL_HD ostDual sin(const ostDual& x) { return chain(x, ::sin(x.v), ::cos(x.v)); }
+  // core's own sin, cos and atan2 (ost_math.h): values from the same double functions
+  friend OST_DUAL_HD ostDual ostu_sin(const ostDual& x) {
+    return chain(x, ::ostu_sin(x.v), ::ostu_cos(x.v));
+  }
+  friend OST_DUAL_HD ostDual ostu_cos(const ostDual& x) {
+    return chain(x, ::ostu_cos(x.v), -::ostu_sin(x.v));
+  }
   friend OST_DUAL_HD ostDual cos(const ostDual& x) { return chain(x, ::cos(x.v), -::sin(x.v)); }
   friend OST_DUAL_HD ostDual exp(const ostDual& x) {
     double e = ::exp(x.v);
@@ -145,6 +154,11 @@ struct ostDual {
     double r2 = x.v * x.v + y.v * y.v;
     r.v = ::atan2(y.v, x.v);
     for (int k = 0; k < N; k++) r.d[k] = (x.v * y.d[k] - y.v * x.d[k]) / r2;
+    return r;
+  }
+  friend OST_DUAL_HD ostDual ostu_atan2(const ostDual& y, const ostDual& x) {
+    ostDual r = atan2(y, x);
+    r.v = ::ostu_atan2(y.v, x.v);
     return r;
   }
   friend OST_DUAL_HD ostDual fmin(const ostDual& a, const ostDual& b) {

@@ -21,6 +21,7 @@
 
 #include "ost_geom.h"
 #include "ost_hd.h"
+#include "ost_math.h"
 #include "ost_model.h"
 
 #ifdef __cplusplus
@@ -137,7 +138,7 @@ OST_HD void osti_kinSubQuat(ostNum res[3], const ostNum q[4], const ostNum qref[
   if (s >= OST_MINVAL) {
     n[0] = d[1] / s; n[1] = d[2] / s; n[2] = d[3] / s;
   }
-  ostNum t = 2 * atan2(s, d[0]);
+  ostNum t = 2 * ostu_atan2(s, d[0]);
   if (t > (ostNum)3.14159265358979323846) {
     t -= 2 * (ostNum)3.14159265358979323846;
   }
@@ -224,8 +225,8 @@ OST_HD void osti_kinematics(const ostModel* m, ostKin* k, const ostNum* qpos) {
               qloc[1 + r] = m->jnt_axis[3*j + r] * (0.5 * qp[0]) + 0;
             }
           } else {
-            ostNum s = sin(0.5 * qp[0]);
-            qloc[0] = cos(0.5 * qp[0]);
+            ostNum s = ostu_sin(0.5 * qp[0]);
+            qloc[0] = ostu_cos(0.5 * qp[0]);
             for (int r = 0; r < 3; r++) {
               qloc[1 + r] = m->jnt_axis[3*j + r] * s;
             }
