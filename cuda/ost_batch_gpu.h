@@ -34,7 +34,7 @@ int ost_batchRollout_gpu(const ostModel* m_dev, const ostBatchLayout* L, char* w
                          const ostStepSettings* set, int nstep, const ostNum* ctrl,
                          ostNum* qpos, ostNum* qvel, char* err, int err_sz);
 
-// free and total device memory (bytes), and the peak the batch saw in use (total - free)
+// free and total device memory (bytes)
 int ost_batchMemInfo_gpu(size_t* free_bytes, size_t* total_bytes);
 
 #ifdef __cplusplus

@@ -207,6 +207,26 @@ size_t ost_batchBytes(const ostBatch* b) {
 }
 
 
+int ost_batchMemory(const ostBatch* b, size_t* used, size_t* total) {
+  if (!b) return -1;
+  if (!used) return -2;
+  if (!total) return -3;
+#ifdef OSTRICH_HAVE_CUDA
+  if (b->cuda) {
+    size_t free_bytes = 0;
+    if (ost_batchMemInfo_gpu(&free_bytes, total)) {
+      return OST_ERR_MEMORY;
+    }
+    *used = *total - free_bytes;
+    return OST_OK;
+  }
+#endif
+  *used = b->L.total + b->model_bytes;
+  *total = 0;
+  return OST_OK;
+}
+
+
 const char* ost_batchError(const ostBatch* b) {
   return b ? b->err : "no batch";
 }

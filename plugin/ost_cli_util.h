@@ -39,6 +39,9 @@ int synth_main(int argc, char** argv);
 // `ostrich gradcheck`: adjoint gradients against finite differences (ost_cli_gradcheck.c).
 int gradcheck_main(int argc, char** argv);
 
+// `ostrich bench scale`: world scaling of the batched API (ost_cli_bench.c).
+int bench_main(int argc, char** argv);
+
 
 //---------------------------------- Messages ------------------------------------------------------
 

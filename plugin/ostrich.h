@@ -292,6 +292,11 @@ int ost_batchStatus(const ostBatch* b, int* status);
 // Bytes of the batch's world memory (host for cpu, device for cuda; the model not included).
 size_t ost_batchBytes(const ostBatch* b);
 
+// Memory of the batch's device: for cuda, the bytes in use on the GPU by every process
+// (cudaMemGetInfo: total - free) and the GPU's total; for cpu, the batch's bytes (model and
+// worlds) and 0.
+int ost_batchMemory(const ostBatch* b, size_t* used, size_t* total);
+
 // Message of the batch's last failure ("" if none).
 const char* ost_batchError(const ostBatch* b);
 
