@@ -13,9 +13,12 @@
 // vertex at its end when a rim is flush with a side face). A face
 // keeps ties (an edge must separate more by OST_CYLBOX_TIE). The rim's contact:
 //   - face: the rim's deepest point p along -n; dist = n.p - e_k, its height over the face;
-//     contact point midway, clamped onto the face's rectangle. When the rim faces the face
+//     contact point midway, clamped onto the face's rectangle. When p is not over the face's
+//     rectangle, the deepest rim point that is (osti_cylboxFacePoint), or the best edge axis
+//     when none is. When the rim faces the face
 //     (n within 3 degrees of the axis), four points of the rim instead.
-//   - edge: the point q against the cylinder: the exact point-cylinder signed distance (curved surface, cap or rim circle),
+//   - edge: the edge point at the rim's end (or nearest the axis, osti_cylboxEdgeDeepest)
+//     against the cylinder: the exact point-cylinder signed distance (curved surface, cap or rim circle),
 //     its gradient as the normal.
 // So a wheel on a face has two contacts (the ends of its bottom line), on an edge two contacts
 // whose normals are the wheel's own surface normals (smooth in yaw and roll), and at a tie
@@ -78,6 +81,110 @@ OST_HD ostNum osti_cylboxPointDist(const ostNum c[3], const ostNum a[3], ostNum 
 }
 
 
+// the face k (normal n = +-e_k) as the rim's feature. The face branch below puts the contact at
+// the rim's deepest point along -n, P(0), with the rim P(th) = C + r (cos th w + sin th v),
+// w = -(n - a (a.n)) / |.| (unit, n.P(th) = n.C - r |n - a (a.n)| cos th), v = a x w. That point
+// must lie over the face's rectangle (|P_i| <= e_i, i != k): a rim beside the box whose tilted
+// edge dips below the face's plane outside the face (a wheel rolled by a step, its inner rim next
+// to the box's side face) otherwise reads as a penetration of several cm while it is centimetres
+// away (and the face beat the edge axes, a vertex at its exact distance, by a hair, switching the
+// contact between +2 cm and -3 cm from one Newton iterate to the next). So the point is the
+// deepest rim point over the rectangle: P(0) when it is there, else the rim's crossing of a
+// side plane x_i = +-e_i of the rectangle nearest th = 0 (over the rectangle), so that the
+// distance is continuous as the deepest point leaves the face. The rectangle is grown by tol
+// (the caller: OST_CYLBOX_INSET (r + hl)), so that a rim flush with a side face (a wheel on the
+// pallet, its outer rim at the pallet's side) keeps P(0) under rounding and finite-difference
+// perturbations (ost_transition vs mjd_transitionFD). Writes it to p and returns how
+// much shallower it is than P(0), r |n - a (a.n)| (1 - cos th) >= 0 (0: P(0), the separating
+// axis value), or -1 when no rim point is over the rectangle (the face is no feature). When the
+// rim faces the face (|w| <= OST_CYLBOX_CAP_SIN: four rim points) the rim's disk must come within
+// tol of the rectangle; returns 0 then.
+OST_HD ostNum osti_cylboxFacePoint(const ostNum e[3], const ostNum C[3], const ostNum a[3],
+                                   ostNum r, int k, const ostNum n[3], ostNum tol, ostNum p[3]) {
+  ostNum na = osti_primDot(n, a);
+  ostNum w[3] = {-(n[0] - na * a[0]), -(n[1] - na * a[1]), -(n[2] - na * a[2])};
+  ostNum lw = osti_primNormalize(w);
+  if (!(lw > OST_CYLBOX_CAP_SIN)) {
+    ostNum out2 = 0;
+    for (int i = 0; i < 3; i++) {
+      ostNum o = fabs(C[i]) - e[i];
+      out2 += i != k && o > 0 ? o * o : 0 * o;
+    }
+    return out2 <= (r + tol) * (r + tol) ? 0 * r : -1 + 0 * r;
+  }
+  ostNum v[3] = {a[1] * w[2] - a[2] * w[1], a[2] * w[0] - a[0] * w[2], a[0] * w[1] - a[1] * w[0]};
+  ostNum best_cos = -2;
+  // candidates: th = 0, then th = phi +- acos(rhs) on the planes x_i = +-e_i, i != k
+  for (int cand = 0; cand < 9; cand++) {
+    ostNum cs = 1, sn = 0;
+    if (cand > 0) {
+      int i = (cand - 1) / 4, side = ((cand - 1) / 2) % 2, pm = (cand - 1) % 2;
+      i = i < k ? i : i + 1;  // the two lateral axes of face k
+      ostNum A = w[i], B = v[i], R = sqrt(A * A + B * B);
+      if (!(R > 1e-12)) {
+        continue;  // the rim's plane parallel to the side plane: no crossing
+      }
+      ostNum rhs = ((side ? e[i] + tol : -e[i] - tol) - C[i]) / (r * R);
+      if (!(fabs(rhs) <= 1)) {
+        continue;
+      }
+      // cos(th - phi) = rhs, (cos phi, sin phi) = (A, B) / R
+      ostNum ca = rhs, sa = (pm ? -1 : 1) * sqrt(1 - rhs * rhs);
+      cs = (A * ca - B * sa) / R;
+      sn = (B * ca + A * sa) / R;
+    }
+    if (!(cs > best_cos)) {
+      continue;
+    }
+    ostNum P[3];
+    int over = 1;
+    for (int j = 0; j < 3; j++) {
+      P[j] = C[j] + r * (cs * w[j] + sn * v[j]);
+      over &= j == k || fabs(P[j]) <= (e[j] + tol) * (1 + 1e-12);
+    }
+    if (over) {
+      best_cos = cs;
+      p[0] = P[0];
+      p[1] = P[1];
+      p[2] = P[2];
+    }
+    if (cand == 0 && over) {
+      return 0 * r;  // the deepest point is over the face: the separating axis value
+    }
+  }
+  return best_cos < -1 ? -1 + 0 * r : r * lw * (1 - best_cos);
+}
+
+
+// the contact point of an edge (box axis j, through q, |s| <= ej) with the half cylinder whose
+// axial coordinates z = a.(x - c) run from 0 to zt (the rim's end, inset): the edge point nearest
+// the axis, s* (rho(s)^2 = |p0 + s e_j|^2 - z(s)^2 with p0 = q - c, q_j = 0, z(s) = a.p0 + s a_j,
+// a convex quadratic), when its z lies inside the half, else the edge point at the rim's end,
+// z(s) = zt. The point nearest Ci (the separating axis above) is axially off by a_k (q_k - c_k)
+// when the wheel is rolled or yawed against an edge nearly parallel to its axis (a wheel climbing
+// a step at an angle: 5 cm for a 9 degree roll), beyond the rim: one rim's contact went to the
+// cap or was lost, and the edge, running deeper into the wheel towards that rim, sank 5 mm into
+// it unseen until the wheel left the edge. Both rims' ends are the ends of the edge's line of
+// contact, where it is deepest (rho is linear along a nearly parallel edge); s* inside a half is
+// the deepest point of an oblique edge (an edge across the axis: both halves find the same s*).
+// Continuous in the pose, except that s* crossing the wheel's middle plane (where both rim ends
+// are equally deep) swaps which rim end is reported. Returns s.
+OST_HD ostNum osti_cylboxEdgeDeepest(const ostNum c[3], const ostNum a[3], const ostNum q[3],
+                                     int j, ostNum ej, ostNum zt) {
+  ostNum p0[3] = {q[0] - c[0], q[1] - c[1], q[2] - c[2]};
+  p0[j] = -c[j];
+  ostNum ap = osti_primDot(a, p0), aj = a[j], den = 1 - aj * aj;
+  ostNum s = (zt - ap) / aj;  // the rim's end (aj = 0 only with den = 1 below)
+  if (den > 1e-12) {
+    ostNum ss = (aj * ap - p0[j]) / den, u = (ap + ss * aj) / zt;  // s*, its fraction of the half
+    if ((u > 0 && u < 1) || !(fabs(aj) > 1e-12)) {
+      s = ss;
+    }
+  }
+  return s < -ej ? -ej : (s > ej ? ej : s);
+}
+
+
 // one contact: box point q (box frame) at signed distance dist from the cylinder, with the
 // cylinder's outward normal n there (box frame); pos midway, normal cylinder -> box (world)
 OST_HD void osti_cylboxPointContact(ostContact* con, const ostGeom* box, const ostNum q[3],
@@ -101,9 +208,10 @@ OST_HD int osti_cylboxRim(ostContact* con, const ostGeom* box, const ostNum c[3]
 
   // separating axes of the rim's disk: faces (k = 0..2), nearest edges (k = 3..5)
   ostNum best[3] = {0, 0, 0}, best_sep = 0, best_q[3] = {0, 0, 0};
-  int best_k = -1;
+  int best_k = -1, edge_k = -1;  // the best axis, the best edge axis
+  ostNum edge_sep = 0, edge_q[3] = {0, 0, 0};
   for (int k = 0; k < 6; k++) {
-    ostNum n[3] = {0, 0, 0}, q[3];
+    ostNum n[3] = {0, 0, 0}, q[3] = {0, 0, 0};
     if (k < 3) {
       n[k] = C[k] < 0 ? -1 : 1;
     } else {
@@ -122,11 +230,19 @@ OST_HD int osti_cylboxRim(ostContact* con, const ostGeom* box, const ostNum c[3]
       if (osti_primNormalize(n) < 1e-12) {
         continue;  // the rim's centre on the edge: no direction
       }
+      q[j] = osti_cylboxEdgeDeepest(c, a, q, j, e[j], (1 - OST_CYLBOX_INSET) * t);
     }
     ostNum na = osti_primDot(n, a), s2 = 1 - na * na;
     ostNum sep = osti_primDot(n, H) - hl / 2 * fabs(na) - (s2 > 1e-30 ? r * sqrt(s2) : 0 * s2)
                  - osti_cylboxMaxBox(e, n);
     ostNum tie = k < 3 ? 0 * r : OST_CYLBOX_TIE * (r + hl);
+    if (k >= 3 && (edge_k < 0 || sep > edge_sep + tie)) {
+      edge_sep = sep;
+      edge_k = k;
+      for (int i = 0; i < 3; i++) {
+        edge_q[i] = q[i];
+      }
+    }
     if (best_k < 0 || sep > best_sep + tie) {
       best_sep = sep;
       best_k = k;
@@ -138,6 +254,20 @@ OST_HD int osti_cylboxRim(ostContact* con, const ostGeom* box, const ostNum c[3]
   }
   if (best_k < 0 || best_sep > margin) {
     return 0;
+  }
+
+  // face whose rim point is not over the face (osti_cylboxFacePoint): the deepest rim point over
+  // it, or, when none is, the best edge axis
+  ostNum pface[3] = {0, 0, 0};
+  if (best_k < 3 && osti_cylboxFacePoint(e, C, a, r, best_k, best,
+                                            OST_CYLBOX_INSET * (r + hl), pface) < 0) {
+    if (edge_k < 0 || edge_sep > margin) {
+      return 0;
+    }
+    best_k = edge_k;
+    for (int i = 0; i < 3; i++) {
+      best_q[i] = edge_q[i];
+    }
   }
 
   // edge: the edge point against the cylinder
@@ -158,7 +288,9 @@ OST_HD int osti_cylboxRim(ostContact* con, const ostGeom* box, const ostNum c[3]
   ostNum pts[4][3];
   int npt = 1;
   if (osti_primNormalize(w) > OST_CYLBOX_CAP_SIN) {
-    osti_primAxpy(pts[0], C, r, w);
+    pts[0][0] = pface[0];  // osti_cylboxFacePoint's point
+    pts[0][1] = pface[1];
+    pts[0][2] = pface[2];
   } else {
     // along the box axis most normal to a and its cross product with a
     int j = 0;

@@ -533,10 +533,10 @@ END_TEST
 // 0.05 rad so that the edge crosses the wheel's rims at different depths, the robot at
 // y = -0.15 so that the right wheel clears the pallet's side by 3 cm, every wheel also on the
 // floor and the base rolled as in test_contactsWheeledRobot: 6 plane : cylinder contacts and
-// one cylinder : box contact (Ostrich's generator, core/ost_collision_cylbox.h: the edge point
-// nearest the deeper rim against the wheel's curved surface; the other rim is beyond the
-// margin). Unlike MuJoCo's MPR there, whose result jumped between final portals under one-ulp
-// perturbations, this contact is a smooth function of the pose: checked to the same tolerance.
+// two cylinder : box contacts (Ostrich's generator, core/ost_collision_cylbox.h: the edge's points
+// at the two rims' ends, the ends of its line of contact, against the wheel's curved surface; the
+// shallower one is within the look-ahead margin). Unlike MuJoCo's MPR there, whose result jumped
+// between final portals under one-ulp perturbations, this contact is a smooth function of the pose: checked to the same tolerance.
 START_TEST(test_palletEdge) {
   ost_fixtureSetup();
   Packed p(ost_fixtureLoadModel("robot_pallet.xml"));
@@ -544,7 +544,7 @@ START_TEST(test_palletEdge) {
   const double pose[6] = {0.370, -0.15, 0.345, 0.01, 0.0, 0.05}, wheel[3] = {0.4, 0.1, -0.7};
   robotPose(p.m, pose, wheel, qpos.data());
   Agreement a[2];
-  ck_assert_int_eq(checkContacts(&p, qpos.data(), a), 7);
+  ck_assert_int_eq(checkContacts(&p, qpos.data(), a), 8);
   ck_assert(a[1].scale[C_DIST] > 0);
   report("robot_pallet edge plane:cyl", a[0], cname, 0, NC, TOL_CON);
   report("robot_pallet edge cyl:box", a[1], cname, 0, NC, TOL_CON);
