@@ -36,6 +36,11 @@ struct ostBatch_ {
   ostBatchLayout  L;              // world layout
   char*           worlds;         // L.total bytes: host (cpu) or device (cuda)
   ostNum*         qpos0;          // the model's qpos0 (nq)
+  mjModel*        m;              // the user's model, copied (backward replays)
+  int             fresh;          // 1: no step since ost_batchSetState
+  int             rec_nstep;      // steps of the last rollout from a set state (0: none)
+  ostNum*         rec_start;      // its start states: nworld x (nq + nv)
+  ostNum*         rec_ctrl;       // its controls: rec_nstep x nworld x nu
   char            err[1000];      // last failure
 };
 
@@ -151,6 +156,12 @@ ostBatch* ost_batchCreate(const mjModel* m, int nworld, const char* device, char
     return NULL;
   }
   memcpy(b->qpos0, m->qpos0, sizeof(ostNum) * m->nq);
+  b->m = mj_copyModel(NULL, m);
+  if (!b->m) {
+    snprintf(err, err_sz, "ost_batchCreate: out of memory");
+    ost_batchDelete(b);
+    return NULL;
+  }
   int bad;
   if (cuda) {
 #ifdef OSTRICH_HAVE_CUDA
@@ -193,6 +204,11 @@ void ost_batchDelete(ostBatch* b) {
   free(b->worlds);
   free(b->model_block);
   free(b->qpos0);
+  free(b->rec_start);
+  free(b->rec_ctrl);
+  if (b->m) {
+    mj_deleteModel(b->m);
+  }
   free(b);
 }
 
@@ -287,6 +303,8 @@ int ost_batchSetState(ostBatch* b, const mjtNum* qpos, const mjtNum* qvel) {
   free(q);
   free(zero);
   free(izero);
+  b->fresh = !status;
+  b->rec_nstep = 0;
   return status;
 }
 
@@ -362,6 +380,48 @@ static int rolloutCpu(ostBatch* b, int nstep, const ostNum* ctrl, ostNum* qpos, 
 }
 
 
+// keep what a backward pass replays: the start states and every step's controls of a rollout
+// from a set state (a later rollout continues it: its record is dropped)
+static int recordInputs(ostBatch* b, int nstep, const ostNum* ctrl) {
+  int nw = b->L.nworld, nu = b->nu;
+  int fresh = b->fresh;
+  b->fresh = 0;
+  b->rec_nstep = 0;
+  if (!fresh) {
+    return OST_OK;
+  }
+  free(b->rec_start);
+  free(b->rec_ctrl);
+  b->rec_start = (ostNum*)malloc(sizeof(ostNum) * nw * (b->nq + b->nv));
+  b->rec_ctrl = (ostNum*)malloc(sizeof(ostNum) * ((size_t)nstep * nw * nu + 1));
+  ostNum* cur = (ostNum*)malloc(sizeof(ostNum) * (size_t)nw * (nu + 1));
+  int bad = !b->rec_start || !b->rec_ctrl || !cur;
+  if (!bad) {
+    ostNum* q = (ostNum*)malloc(sizeof(ostNum) * nw * (b->nq + b->nv));
+    bad = !q || field(b, b->L.qpos, sizeof(ostNum) * b->nq, q, 0)
+          || field(b, b->L.qvel, sizeof(ostNum) * b->nv, q + (size_t)nw * b->nq, 0)
+          || (!ctrl && field(b, b->L.ctrl, sizeof(ostNum) * nu, cur, 0));
+    for (int i = 0; !bad && i < nw; i++) {
+      memcpy(b->rec_start + (size_t)i * (b->nq + b->nv), q + (size_t)i * b->nq,
+             sizeof(ostNum) * b->nq);
+      memcpy(b->rec_start + (size_t)i * (b->nq + b->nv) + b->nq, q + (size_t)nw * b->nq
+             + (size_t)i * b->nv, sizeof(ostNum) * b->nv);
+    }
+    free(q);
+  }
+  for (int t = 0; !bad && t < nstep; t++) {
+    memcpy(b->rec_ctrl + (size_t)t * nw * nu, ctrl ? ctrl + (size_t)t * nw * nu : cur,
+           sizeof(ostNum) * nw * nu);
+  }
+  free(cur);
+  if (bad) {
+    return OST_ERR_MEMORY;
+  }
+  b->rec_nstep = nstep;
+  return OST_OK;
+}
+
+
 int ost_batchRollout(ostBatch* b, int nstep, const mjtNum* ctrl, mjtNum* qpos, mjtNum* qvel) {
   if (!b) return -1;
   if (nstep < 0) return -2;
@@ -369,6 +429,9 @@ int ost_batchRollout(ostBatch* b, int nstep, const mjtNum* ctrl, mjtNum* qpos, m
     return OST_OK;
   }
   b->err[0] = 0;
+  if (recordInputs(b, nstep, ctrl)) {
+    return batchFail(b, OST_ERR_MEMORY, "ost_batchRollout: out of memory");
+  }
 #ifdef OSTRICH_HAVE_CUDA
   if (b->cuda) {
     return ost_batchRollout_gpu(&b->model_dev, &b->L, b->worlds, &b->set, nstep, ctrl, qpos, qvel,
@@ -381,4 +444,138 @@ int ost_batchRollout(ostBatch* b, int nstep, const mjtNum* ctrl, mjtNum* qpos, m
 
 int ost_batchStep(ostBatch* b) {
   return ost_batchRollout(b, 1, NULL, NULL, NULL);
+}
+
+
+//---------------------------------- Backward (CPU) ------------------------------------------------
+
+typedef struct backChunk_ {       // one thread's share of a backward pass
+  const ostBatch*       b;
+  const ostGradOptions* go;
+  int                   checkpoint;
+  int                   w0, w1;   // worlds [w0, w1)
+  const ostNum*         gq;       // (T + 1) x nworld x nv, or NULL
+  const ostNum*         gu;
+  ostNum*               gctrl;    // T x nworld x nu, or NULL
+  ostNum*               gq0;      // nworld x nv, or NULL
+  ostNum*               gu0;
+  int*                  failed;   // nworld flags
+} backChunk;
+
+
+// world i's gradients into the step-major outputs (NaN if failed)
+static void scatterWorld(const backChunk* c, int i, const ostNum* gc, const ostNum* q0,
+                         const ostNum* u0, int failed) {
+  const ostBatch* b = c->b;
+  int nw = b->L.nworld, nv = b->nv, nu = b->nu, T = b->rec_nstep;
+  for (int t = 0; c->gctrl && t < T; t++) {
+    for (int a = 0; a < nu; a++) {
+      c->gctrl[((size_t)t * nw + i) * nu + a] = failed ? NAN : gc[t * nu + a];
+    }
+  }
+  for (int j = 0; j < nv; j++) {
+    if (c->gq0) c->gq0[(size_t)i * nv + j] = failed ? NAN : q0[j];
+    if (c->gu0) c->gu0[(size_t)i * nv + j] = failed ? NAN : u0[j];
+  }
+}
+
+
+// replay each world's rollout through a tape (native provider: the batch's bits) and run it
+// backward; the cotangents are gathered from the step-major arrays
+static void* backChunkRun(void* arg) {
+  backChunk* c = (backChunk*)arg;
+  const ostBatch* b = c->b;
+  const mjModel* m = b->m;
+  int nw = b->L.nworld, nq = b->nq, nv = b->nv, nu = b->nu, T = b->rec_nstep;
+  mjData* d = mj_makeData(m);
+  ostTape* tape = ost_tapeCreate(m, c->checkpoint);
+  ostNum* buf = (ostNum*)calloc((size_t)(T + 1) * 2 * nv + (size_t)T * nu + 2 * nv + 1,
+                                sizeof(ostNum));
+  ostNum *gqw = buf, *guw = gqw + (size_t)(T + 1) * nv, *gcw = guw + (size_t)(T + 1) * nv;
+  ostNum *q0 = gcw + (size_t)T * nu, *u0 = q0 + nv;
+  ostOptions o;
+  int ok = d && tape && buf && !ost_readOptions(m, &o, NULL, 0);
+  o.geometry = OST_GEOMETRY_NATIVE;
+  ok = ok && !ost_setOptions(m, d, &o);
+  for (int i = c->w0; i < c->w1; i++) {
+    int good = ok;
+    if (good) {
+      mj_resetData(m, d);
+      memcpy(d->qpos, b->rec_start + (size_t)i * (nq + nv), sizeof(ostNum) * nq);
+      memcpy(d->qvel, b->rec_start + (size_t)i * (nq + nv) + nq, sizeof(ostNum) * nv);
+      ost_tapeClear(tape);
+    }
+    for (int t = 0; good && t < T; t++) {
+      memcpy(d->ctrl, b->rec_ctrl + ((size_t)t * nw + i) * nu, sizeof(ostNum) * nu);
+      good = ost_tapeStep(tape, m, d) == OST_OK;
+    }
+    for (int t = 0; good && t <= T; t++) {
+      for (int j = 0; j < nv; j++) {
+        gqw[t * nv + j] = c->gq ? c->gq[((size_t)t * nw + i) * nv + j] : 0;
+        guw[t * nv + j] = c->gu ? c->gu[((size_t)t * nw + i) * nv + j] : 0;
+      }
+    }
+    good = good && ost_tapeBackward(tape, m, c->go, gqw, guw, gcw, q0, u0, NULL) == OST_OK;
+    scatterWorld(c, i, gcw, q0, u0, !good);
+    c->failed[i] = !good;
+  }
+  free(buf);
+  ost_tapeDelete(tape);
+  if (d) {
+    ost_deleteData(d);
+  }
+  return NULL;
+}
+
+
+int ost_batchBackward(ostBatch* b, const ostGradOptions* go, int checkpoint, const mjtNum* gq,
+                      const mjtNum* gu, mjtNum* gctrl, mjtNum* gq0, mjtNum* gu0) {
+  if (!b) return -1;
+  if (checkpoint < 0) return -3;
+  if (b->cuda) {
+    return batchFail(b, OST_ERR_INPUT, "ost_batchBackward: the cuda batch has no backward pass "
+                     "yet (use a cpu batch)");
+  }
+  if (b->rec_nstep == 0) {
+    return batchFail(b, OST_ERR_INPUT, "ost_batchBackward: no rollout recorded (call "
+                     "ost_batchRollout right after ost_batchSetState)");
+  }
+  ostGradOptions def;
+  if (!go) {
+    ost_defaultGradOptions(&def);
+    go = &def;
+  }
+  int nt = b->nthread > 0 ? b->nthread : 1, nw = b->L.nworld;
+  int* failed = (int*)calloc(nw, sizeof(int));
+  if (!failed) {
+    return batchFail(b, OST_ERR_MEMORY, "ost_batchBackward: out of memory");
+  }
+  backChunk chunk[OST_BATCH_MAX_THREADS];
+  pthread_t thread[OST_BATCH_MAX_THREADS];
+  int started[OST_BATCH_MAX_THREADS];
+  for (int t = 0; t < nt; t++) {
+    chunk[t] = (backChunk){b, go, checkpoint, (int)((long)nw * t / nt),
+                           (int)((long)nw * (t + 1) / nt), gq, gu, gctrl, gq0, gu0, failed};
+    started[t] = t > 0 && !pthread_create(thread + t, NULL, backChunkRun, chunk + t);
+  }
+  backChunkRun(chunk);
+  for (int t = 1; t < nt; t++) {
+    if (started[t]) {
+      pthread_join(thread[t], NULL);
+    } else {
+      backChunkRun(chunk + t);
+    }
+  }
+
+  // failed worlds get OST_NAN in their outcome bits
+  int* status = (int*)malloc(sizeof(int) * nw);
+  if (status && !field(b, b->L.status, sizeof(int), status, 0)) {
+    for (int i = 0; i < nw; i++) {
+      status[i] |= failed[i] ? OST_NAN : 0;
+    }
+    field(b, b->L.status, sizeof(int), status, 1);
+  }
+  free(status);
+  free(failed);
+  return OST_OK;
 }

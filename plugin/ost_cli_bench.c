@@ -3,9 +3,11 @@
 // over the 6 s horizon). For each world count and device: every world starts from its own
 // random start (synth's distribution) and follows synth's initial wheel command (1.5 rad/s,
 // ramping to 0 over the last second); one untimed rollout warms up, then --repeat timed
-// rollouts of the whole horizon. Reports the median rollout time, world-rollouts per second
-// (forward only: the batch has no backward pass yet), world-steps per second, the device's
-// memory in use, and the ratio of each device to the CPU batch with all cores in the same run.
+// rollouts of the whole horizon. Reports the median rollout time, world-rollouts and
+// world-steps per second, on the CPU also one optimization iteration (rollout + backward pass,
+// ost_batchBackward; the cuda batch has no backward pass yet) and world-iterations per second,
+// the device's memory in use, and each device's forward ratio to the CPU batch with all cores
+// in the same run.
 // Invariant: every figure printed was measured in this run.
 #define _POSIX_C_SOURCE 200809L
 
@@ -60,6 +62,7 @@ typedef struct benchRow_ {        // one measured point
   double rollout_s;               // median rollout time
   double world_rollouts_per_s;
   double world_steps_per_s;
+  double iter_s;                  // one optimization iteration: rollout + backward (cpu; NaN: none)
   double mem_gb;                  // device memory in use (cuda) or batch bytes (cpu), GB
   int    failed;                  // worlds with a failure bit at the end
 } benchRow;
@@ -127,6 +130,27 @@ static int benchPoint(const mjModel* m, const char* device, int nworld, const be
       cli_error("bench scale: %s, %d worlds: %s", device, nworld, ost_batchError(b));
     }
   }
+
+  // one optimization iteration (cpu): the rollout and its backward pass for a loss of the
+  // final state (cotangent 1 on each world's final x)
+  row->iter_s = NAN;
+  if (!bad && strcmp(device, "cuda")) {
+    size_t n = ((size_t)T + 1) * nworld * m->nv;
+    mjtNum* gq = (mjtNum*)calloc(n, sizeof(mjtNum));
+    mjtNum* gctrl = (mjtNum*)malloc(sizeof(mjtNum) * (size_t)T * nworld * m->nu);
+    for (int w = 0; gq && w < nworld; w++) {
+      gq[((size_t)T * nworld + w) * m->nv] = 1;
+    }
+    double t0 = cli_now();
+    bad = !gq || !gctrl || ost_batchSetState(b, q0, NULL) || ost_batchRollout(b, T, ctrl, NULL, NULL)
+          || ost_batchBackward(b, NULL, 0, gq, NULL, gctrl, NULL, NULL);
+    row->iter_s = cli_now() - t0;
+    if (bad) {
+      cli_error("bench scale: %s, %d worlds, backward: %s", device, nworld, ost_batchError(b));
+    }
+    free(gq);
+    free(gctrl);
+  }
   if (!bad) {
     size_t used = 0, total = 0;
     ost_batchMemory(b, &used, &total);
@@ -160,9 +184,10 @@ static int benchPlot(const char* png, const char* csv) {
            "gnuplot -e \"set terminal png size 900,600; set output '%s'; set logscale xy; "
            "set datafile separator ','; set key top left; set xlabel 'worlds'; "
            "set ylabel 'world-steps per second (forward)'; set title 'ostrich bench scale'; "
-           "plot '< grep ^cuda, %s' using 2:5 with linespoints title 'cuda', "
-           "'< grep ^cpu, %s' using 2:5 with linespoints title 'cpu (all cores)'\" 1>&2",
-           png, csv, csv);
+           "plot '< grep ^cuda, %s' using 2:5 with linespoints title 'cuda forward', "
+           "'< grep ^cpu, %s' using 2:5 with linespoints title 'cpu forward (all cores)', "
+           "'< grep ^cpu, %s' using 2:(60*column(7)) with linespoints title 'cpu fwd+bwd x 60'\" 1>&2",
+           png, csv, csv, csv);
   return system(cmd) != 0;
 }
 
@@ -230,16 +255,17 @@ static int benchScale(int argc, char** argv) {
   }
 
   // the table, with the ratio to the CPU at the same world count
-  printf("%-6s %8s %12s %16s %14s %9s %7s %10s\n", "device", "worlds", "rollout_s",
-         "world_rollouts/s", "world_steps/s", "mem_GB", "failed", "vs_cpu");
+  printf("%-6s %8s %12s %16s %14s %12s %14s %9s %7s %10s\n", "device", "worlds", "rollout_s",
+         "world_rollouts/s", "world_steps/s", "iter_s", "world_iters/s", "mem_GB", "failed",
+         "vs_cpu");
   FILE* f = a.csv ? fopen(a.csv, "w") : NULL;
   if (a.csv && !f) {
     cli_error("bench scale: cannot write %s", a.csv);
     status = CLI_FAIL;
   }
   if (f) {
-    fprintf(f, "device,worlds,rollout_s,world_rollouts_per_s,world_steps_per_s,mem_gb,failed,"
-            "ratio_vs_cpu\n");
+    fprintf(f, "device,worlds,rollout_s,world_rollouts_per_s,world_steps_per_s,iter_s,"
+            "world_iters_per_s,mem_gb,failed,ratio_vs_cpu\n");
   }
   for (int r = 0; r < nrow; r++) {
     double ratio = NAN;
@@ -248,13 +274,14 @@ static int benchScale(int argc, char** argv) {
         ratio = rows[r].world_steps_per_s / rows[c].world_steps_per_s;
       }
     }
-    printf("%-6s %8d %12.4f %16.1f %14.1f %9.3f %7d %10.3f\n", rows[r].device, rows[r].worlds,
-           rows[r].rollout_s, rows[r].world_rollouts_per_s, rows[r].world_steps_per_s,
-           rows[r].mem_gb, rows[r].failed, ratio);
+    double wips = rows[r].worlds / rows[r].iter_s;
+    printf("%-6s %8d %12.4f %16.1f %14.1f %12.4f %14.1f %9.3f %7d %10.3f\n", rows[r].device,
+           rows[r].worlds, rows[r].rollout_s, rows[r].world_rollouts_per_s,
+           rows[r].world_steps_per_s, rows[r].iter_s, wips, rows[r].mem_gb, rows[r].failed, ratio);
     if (f) {
-      fprintf(f, "%s,%d,%.6g,%.6g,%.6g,%.6g,%d,%.6g\n", rows[r].device, rows[r].worlds,
+      fprintf(f, "%s,%d,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%d,%.6g\n", rows[r].device, rows[r].worlds,
               rows[r].rollout_s, rows[r].world_rollouts_per_s, rows[r].world_steps_per_s,
-              rows[r].mem_gb, rows[r].failed, ratio);
+              rows[r].iter_s, wips, rows[r].mem_gb, rows[r].failed, ratio);
     }
   }
   if (f) {

@@ -286,6 +286,17 @@ int ost_batchStep(ostBatch* b);
 // nv) receive the state after each step (NULL: not kept).
 int ost_batchRollout(ostBatch* b, int nstep, const mjtNum* ctrl, mjtNum* qpos, mjtNum* qvel);
 
+// Gradients of a loss of the last rollout, which must have started right after
+// ost_batchSetState (cpu device; cuda: not yet, OST_ERR_INPUT). gq, gu ((nstep + 1) x nworld x
+// nv, step-major; NULL = zero): the loss's cotangents with respect to each world's state after
+// each step, row 0 the start (qpos as a tangent vector, see ost_tapeBackward). Returns gctrl
+// (nstep x nworld x nu) and gq0, gu0 (nworld x nv); any may be NULL. Each world's rollout is
+// replayed through a tape (ost_tapeStep with the native provider, the same bits as the batch:
+// segment checkpointing every `checkpoint` steps, 0 = none) and run backward on the batch's
+// threads. A world whose replay or backward pass fails gets NaN gradients and OST_NAN.
+int ost_batchBackward(ostBatch* b, const ostGradOptions* go, int checkpoint, const mjtNum* gq,
+                      const mjtNum* gu, mjtNum* gctrl, mjtNum* gq0, mjtNum* gu0);
+
 // Outcome bits of every world's last step (nworld ints, ostStatusBit).
 int ost_batchStatus(const ostBatch* b, int* status);
 

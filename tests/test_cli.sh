@@ -332,6 +332,30 @@ expect_py "synth both: a summary per engine and the ratio of warm iteration time
    and j['warm_iter_ratio'] > 0"
 
 
+#---------------------------------- bench scale ---------------------------------------------------
+
+expect_usage_error "bench: unknown benchmark" bench speed
+expect_usage_error "bench scale: unknown device" bench scale --device tpu --model "$BOXM"
+expect_usage_error "bench scale: a world count of 0" bench scale --worlds 1,0 --model "$BOXM"
+expect_usage_error "bench scale: missing model" bench scale --model "$tmp/no_such_model.xml"
+OSTRICH_QUIET=1 run bench scale --device cpu --worlds 1,3 --steps 4 --repeat 1 --model "$BOXM" \
+  --csv "$tmp/bs.csv"
+expect_rc 0 "bench scale on the cpu, 1 and 3 worlds"
+if [[ $(grep -c '^cpu,' "$tmp/bs.csv") -eq 2 ]] && grep -q 'world_iters_per_s' "$tmp/bs.csv"; then
+  pass "bench scale: a CSV row per world count, with world-iterations per second"
+else
+  fail "bench scale: expected two cpu rows in $tmp/bs.csv"
+fi
+if OSTRICH_QUIET=1 "$BIN" bench scale --device cuda --worlds 1 --steps 2 --repeat 1 \
+     --model "$BOXM" >/dev/null 2>"$tmp/err"; then
+  pass "bench scale --device cuda ran (a CUDA build with a GPU)"
+elif grep -q "without CUDA\|cuda" "$tmp/err"; then
+  pass "bench scale --device cuda without a GPU build: $(head -c 120 "$tmp/err")"
+else
+  rc=1; fail "bench scale --device cuda: expected a message naming CUDA"
+fi
+
+
 #---------------------------------- summary -------------------------------------------------------
 
 echo "test_cli: $npass passed, $nfail failed"

@@ -174,6 +174,98 @@ START_TEST(test_batchMixed) {
 END_TEST
 
 
+
+// loss of each world: x + 0.3 y + 0.5 vx of its state after the last step (qpos (nworld x nq))
+static void worldLoss(const mjModel* m, int nworld, const mjtNum* qpos, const mjtNum* qvel,
+                      mjtNum* L) {
+  for (int i = 0; i < nworld; i++) {
+    L[i] = qpos[i * m->nq] + 0.3 * qpos[i * m->nq + 1] + 0.5 * qvel[i * m->nv];
+  }
+}
+
+
+// the batch's backward pass equals central differences of its own rollouts (robot on the floor
+// short of the box, four worlds with their own starts and per-step controls, 15 steps at h = 0.1 s); a world with
+// a NaN control gets NaN gradients and OST_NAN; a rollout that did not start from a set state
+// has no backward pass
+START_TEST(test_batchBackward) {
+  ost_fixtureSetup();
+  mjModel* m = ost_fixtureLoadModel("robot_box.xml");
+  int nw = 4, T = 15, nq = m->nq, nv = m->nv, nu = m->nu;
+  char err[1000];
+  ostBatch* b = ost_batchCreate(m, nw, "cpu:2", err, sizeof(err));
+  ck_assert_msg(b != NULL, "%s", err);
+  mjtNum* q0 = calloc(nw * nq, sizeof(mjtNum));
+  mjtNum* ctrl = calloc(T * nw * nu, sizeof(mjtNum));
+  mjtNum *qpos = calloc(nw * nq, sizeof(mjtNum)), *qvel = calloc(nw * nv, sizeof(mjtNum));
+  mjtNum *gq = calloc((T + 1) * nw * nv, sizeof(mjtNum)), *gu = calloc((T + 1) * nw * nv, 8);
+  mjtNum* gctrl = calloc(T * nw * nu, sizeof(mjtNum));
+  for (int i = 0; i < nw; i++) {
+    memcpy(q0 + i * nq, m->qpos0, nq * sizeof(mjtNum));
+    q0[i * nq] = -1;  // 2 m before the box: flat ground for the whole rollout
+    q0[i * nq + 1] = 0.1 * i;
+    q0[i * nq + 3] = cos(0.05 * i);
+    q0[i * nq + 6] = sin(0.05 * i);
+    for (int t = 0; t < T; t++) {
+      for (int a = 0; a < nu; a++) {
+        ctrl[(t * nw + i) * nu + a] = 1 + 0.5 * sin(0.7 * t + a + i);
+      }
+    }
+    gq[(T * nw + i) * nv + 0] = 1;
+    gq[(T * nw + i) * nv + 1] = 0.3;
+    gu[(T * nw + i) * nv + 0] = 0.5;
+  }
+  ctrl[(5 * nw + 3) * nu] = NAN;  // world 3 fails at step 5
+
+  ck_assert_int_eq(ost_batchSetState(b, q0, NULL), OST_OK);
+  ck_assert_int_eq(ost_batchRollout(b, T, ctrl, NULL, NULL), OST_OK);
+  ck_assert_int_eq(ost_batchBackward(b, NULL, 0, gq, gu, gctrl, NULL, NULL), OST_OK);
+  int status[4];
+  ck_assert_int_eq(ost_batchStatus(b, status), OST_OK);
+  ck_assert_int_eq(status[3] & OST_NAN, OST_NAN);
+
+  // central differences of the loss over single controls
+  const int probes[4][2] = {{2, 0}, {7, 1}, {11, 2}, {14, 0}};
+  double worst = 0, eps = 1e-6;
+  for (int p = 0; p < 4; p++) {
+    mjtNum Lp[4], Lm[4];
+    for (int sgn = 0; sgn < 2; sgn++) {
+      for (int i = 0; i < 3; i++) ctrl[(probes[p][0] * nw + i) * nu + probes[p][1]] += sgn ? -2 * eps : eps;
+      ck_assert_int_eq(ost_batchSetState(b, q0, NULL), OST_OK);
+      ck_assert_int_eq(ost_batchRollout(b, T, ctrl, NULL, NULL), OST_OK);
+      ck_assert_int_eq(ost_batchGetState(b, qpos, qvel), OST_OK);
+      worldLoss(m, nw, qpos, qvel, sgn ? Lm : Lp);
+    }
+    for (int i = 0; i < 3; i++) ctrl[(probes[p][0] * nw + i) * nu + probes[p][1]] += eps;
+    for (int i = 0; i < 3; i++) {
+      double fd = (Lp[i] - Lm[i]) / (2 * eps), g = gctrl[(probes[p][0] * nw + i) * nu + probes[p][1]];
+      double e = fabs(g - fd) / fmax(1e-3, fabs(fd));
+      worst = fmax(worst, e);
+      printf("backward world %d ctrl[t=%d, a=%d]: adjoint %.8g, central differences %.8g\n", i,
+             probes[p][0], probes[p][1], g, fd);
+    }
+    ck_assert(isnan(gctrl[(probes[p][0] * nw + 3) * nu + probes[p][1]]));
+  }
+  printf("batch backward vs central differences: max relative error %.3g\n", worst);
+  ck_assert_double_lt(worst, 1e-4);
+
+  // a rollout that continues the last one has no record
+  ck_assert_int_eq(ost_batchRollout(b, 2, NULL, NULL, NULL), OST_OK);
+  ck_assert_int_eq(ost_batchBackward(b, NULL, 0, gq, gu, gctrl, NULL, NULL), OST_ERR_INPUT);
+  ck_assert_ptr_nonnull(strstr(ost_batchError(b), "no rollout recorded"));
+  ost_batchDelete(b);
+  free(q0);
+  free(ctrl);
+  free(qpos);
+  free(qvel);
+  free(gq);
+  free(gu);
+  free(gctrl);
+  mj_deleteModel(m);
+}
+END_TEST
+
+
 // refused: bad arguments, unknown devices, cuda without a CUDA build, models native cannot do
 START_TEST(test_batchErrors) {
   ost_fixtureSetup();
@@ -222,6 +314,7 @@ static Suite* suite(void) {
   tcase_set_timeout(tc, 600);
   tcase_add_test(tc, test_batchEqualsStep);
   tcase_add_test(tc, test_batchMixed);
+  tcase_add_test(tc, test_batchBackward);
   tcase_add_test(tc, test_batchErrors);
   suite_add_tcase(s, tc);
   return s;
