@@ -16,6 +16,9 @@
 #include "ost_rows_native.h"
 #include "ost_solver.h"
 #include "ost_util_dense.h"
+#include "ost_batch.h"
+#include "ost_math.h"
+#include "ost_step.h"
 
 __global__ void ost_coreCompile_kernel(ostWorld* worlds, const ostSolverOptions* opt, int nworld,
                                        ostNum* merit) {
