@@ -336,6 +336,25 @@ int ost_batchStatus(const ostBatch* b, int* status) {
 
 //---------------------------------- CPU driver ----------------------------------------------------
 
+// run fn on nt chunks (an array of chunk_sz-byte structs), one thread each: chunk 0 on the
+// caller, and a chunk whose thread cannot start on the caller too
+static void runThreads(int nt, void* (*fn)(void*), void* chunks, size_t chunk_sz) {
+  pthread_t thread[OST_BATCH_MAX_THREADS];
+  int started[OST_BATCH_MAX_THREADS];
+  for (int t = 1; t < nt; t++) {
+    started[t] = !pthread_create(thread + t, NULL, fn, (char*)chunks + t * chunk_sz);
+  }
+  fn(chunks);
+  for (int t = 1; t < nt; t++) {
+    if (started[t]) {
+      pthread_join(thread[t], NULL);
+    } else {
+      fn((char*)chunks + t * chunk_sz);
+    }
+  }
+}
+
+
 typedef struct cpuChunk_ {        // one thread's share of a rollout
   const ostBatch* b;
   int             w0, w1;         // worlds [w0, w1)
@@ -360,22 +379,11 @@ static void* cpuChunkRun(void* arg) {
 static int rolloutCpu(ostBatch* b, int nstep, const ostNum* ctrl, ostNum* qpos, ostNum* qvel) {
   int nt = b->nthread > 0 ? b->nthread : 1, nw = b->L.nworld;
   cpuChunk chunk[OST_BATCH_MAX_THREADS];
-  pthread_t thread[OST_BATCH_MAX_THREADS];
-  int started[OST_BATCH_MAX_THREADS];
   for (int t = 0; t < nt; t++) {
     chunk[t] = (cpuChunk){b, (int)((long)nw * t / nt), (int)((long)nw * (t + 1) / nt), nstep,
                           ctrl, qpos, qvel};
-    // thread 0's share runs on the caller; a thread that cannot start runs there too
-    started[t] = t > 0 && !pthread_create(thread + t, NULL, cpuChunkRun, chunk + t);
   }
-  cpuChunkRun(chunk);
-  for (int t = 1; t < nt; t++) {
-    if (started[t]) {
-      pthread_join(thread[t], NULL);
-    } else {
-      cpuChunkRun(chunk + t);
-    }
-  }
+  runThreads(nt, cpuChunkRun, chunk, sizeof(cpuChunk));
   return OST_OK;
 }
 
@@ -551,21 +559,11 @@ int ost_batchBackward(ostBatch* b, const ostGradOptions* go, int checkpoint, con
     return batchFail(b, OST_ERR_MEMORY, "ost_batchBackward: out of memory");
   }
   backChunk chunk[OST_BATCH_MAX_THREADS];
-  pthread_t thread[OST_BATCH_MAX_THREADS];
-  int started[OST_BATCH_MAX_THREADS];
   for (int t = 0; t < nt; t++) {
     chunk[t] = (backChunk){b, go, checkpoint, (int)((long)nw * t / nt),
                            (int)((long)nw * (t + 1) / nt), gq, gu, gctrl, gq0, gu0, failed};
-    started[t] = t > 0 && !pthread_create(thread + t, NULL, backChunkRun, chunk + t);
   }
-  backChunkRun(chunk);
-  for (int t = 1; t < nt; t++) {
-    if (started[t]) {
-      pthread_join(thread[t], NULL);
-    } else {
-      backChunkRun(chunk + t);
-    }
-  }
+  runThreads(nt, backChunkRun, chunk, sizeof(backChunk));
 
   // failed worlds get OST_NAN in their outcome bits
   int* status = (int*)malloc(sizeof(int) * nw);
