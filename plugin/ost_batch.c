@@ -52,12 +52,6 @@ static int batchFail(ostBatch* b, int status, const char* msg) {
 }
 
 
-// rows a step can need (as ost_context.c): equality, joint limits, contacts, servos
-static int batchRowCapacity(const mjModel* m) {
-  return 6 * m->neq + 2 * m->njnt + 3 * m->nconmax + m->nu;
-}
-
-
 // threads for "cpu" (all online cores) or "cpu:N"; 0 if the device string is not a cpu one
 static int cpuThreads(const char* device) {
   if (!strcmp(device, "cpu")) {
@@ -85,9 +79,7 @@ static int packBatchModel(ostBatch* b, const mjModel* m, char* err, int err_sz) 
     snprintf(err, err_sz, "cannot copy the model");
     return OST_ERR_MEMORY;
   }
-  for (int i = 0; i < mo->ngeom; i++) mo->geom_margin[i] += o.margin;
-  for (int i = 0; i < mo->npair; i++) mo->pair_margin[i] += o.margin;
-  for (int i = 0; i < mo->njnt; i++) mo->jnt_margin[i] += o.margin;
+  ost_widenMargins(mo, o.margin);
   status = ost_packModel(mo, mo->nconmax, &b->model, &b->model_block, err, err_sz);
   mj_deleteModel(mo);
   if (status) {
@@ -96,8 +88,7 @@ static int packBatchModel(ostBatch* b, const mjModel* m, char* err, int err_sz) 
   b->model_bytes = ostu_modelSize(b->model.s);
   ostStepSettings* s = &b->set;
   memset(s, 0, sizeof(*s));
-  s->so = (ostSolverOptions){o.newton_iter, o.pcr_iter, o.k_min, 0, o.tol, o.pcr_tol, o.fb_eps,
-                             o.regularization, o.friction_creep};
+  s->so = ost_solverOptions(&o);
   s->linesearch = o.linesearch;
   s->split_depth = o.split_depth < OST_SPLIT_MAX ? o.split_depth : OST_SPLIT_MAX;
   s->warmstart = o.warmstart;
@@ -148,7 +139,7 @@ ostBatch* ost_batchCreate(const mjModel* m, int nworld, const char* device, char
     ost_batchDelete(b);
     return NULL;
   }
-  ostu_batchLayout(&b->L, b->model.s, batchRowCapacity(m), nworld);
+  ostu_batchLayout(&b->L, b->model.s, ost_rowCapacity(m), nworld);
   b->qpos0 = (ostNum*)malloc(sizeof(ostNum) * (m->nq > 0 ? m->nq : 1));
   if (!b->qpos0) {
     snprintf(err, err_sz, "ost_batchCreate: out of memory");
@@ -395,8 +386,8 @@ static int recordInputs(ostBatch* b, int nstep, const ostNum* ctrl) {
   int fresh = b->fresh;
   b->fresh = 0;
   b->rec_nstep = 0;
-  if (!fresh) {
-    return OST_OK;
+  if (!fresh || b->cuda) {
+    return OST_OK;  // nothing to replay (the cuda batch has no backward pass yet)
   }
   free(b->rec_start);
   free(b->rec_ctrl);

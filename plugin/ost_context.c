@@ -37,9 +37,7 @@ static void freeContext(ostContext* c) {
 }
 
 
-// rows a step can need: equality (<= 6 per constraint), joint limits (<= 2 per joint),
-// contacts (<= 3 per contact, capacity nconmax) and one servo row per actuator
-static int rowCapacity(const mjModel* m) {
+int ost_rowCapacity(const mjModel* m) {
   return 6 * m->neq + 2 * m->njnt + 3 * m->nconmax + m->nu;
 }
 
@@ -58,7 +56,7 @@ static ostContext* newContext(const mjModel* m, const mjData* d) {
   c->jac = (mjtNum*)calloc(6 * (m->nv > 0 ? m->nv : 1), sizeof(mjtNum));
   c->state_end = (mjtNum*)calloc(1 + m->nq + 2 * m->nv, sizeof(mjtNum));
   c->state_start = (mjtNum*)calloc(1 + m->nq + 2 * m->nv, sizeof(mjtNum));
-  int nrow_max = rowCapacity(m);
+  int nrow_max = ost_rowCapacity(m);
   size_t sz = ostu_worldSize(m->nv, nrow_max);
   c->world_buf = aligned_alloc(64, (sz + 63) / 64 * 64);
   if (!c->servo || !c->qpos_prev || !c->state_end || !c->state_start || !c->jac

@@ -133,6 +133,17 @@ int ost_nativeReady(ostContext* c, const mjModel* m);
 // options, model check and private model of a context before a step (ost_step.c)
 int ost_prepareContext(ostContext* c, const mjModel* m);
 
+// widen every geom, pair and joint margin of mo by the look-ahead distance (gaps unchanged, so
+// contacts and limits within it get rows); the private model of ost_step and of a batch
+void ost_widenMargins(mjModel* mo, mjtNum lookahead);
+
+// rows a step can need: equality (<= 6 per constraint), joint limits (<= 2 per joint),
+// contacts (<= 3 per contact, capacity nconmax) and one servo row per actuator (ost_context.c)
+int ost_rowCapacity(const mjModel* m);
+
+// the Newton and PCR settings of a step from the options (ost_step.c)
+ostSolverOptions ost_solverOptions(const ostOptions* o);
+
 // a context's warm-start state (validity, last rows and forces, end state): its size in
 // bytes, and copies out of and into a context, so that a recomputed step starts as the
 // recorded one did

@@ -90,6 +90,26 @@ int ost_nativeReady(ostContext* c, const mjModel* m) {
 }
 
 
+ostSolverOptions ost_solverOptions(const ostOptions* o) {
+  ostSolverOptions so = {o->newton_iter, o->pcr_iter, o->k_min, 0,      o->tol,
+                         o->pcr_tol,     o->fb_eps,   o->regularization, o->friction_creep};
+  return so;
+}
+
+
+void ost_widenMargins(mjModel* mo, mjtNum lookahead) {
+  for (int i = 0; i < mo->ngeom; i++) {
+    mo->geom_margin[i] += lookahead;
+  }
+  for (int i = 0; i < mo->npair; i++) {
+    mo->pair_margin[i] += lookahead;
+  }
+  for (int i = 0; i < mo->njnt; i++) {
+    mo->jnt_margin[i] += lookahead;
+  }
+}
+
+
 // prepare the context for a step: options, model check, private model whose margins are
 // widened by the look-ahead distance (gaps unchanged, so look-ahead contacts get efc rows)
 int ost_prepareContext(ostContext* c, const mjModel* m) {
@@ -110,16 +130,7 @@ int ost_prepareContext(ostContext* c, const mjModel* m) {
     return ost_fail(c, OST_ERR_MEMORY, "cannot copy the model");
   }
   mjModel* mo = c->mo;
-  mjtNum la = c->opt.margin;
-  for (int i = 0; i < mo->ngeom; i++) {
-    mo->geom_margin[i] += la;
-  }
-  for (int i = 0; i < mo->npair; i++) {
-    mo->pair_margin[i] += la;
-  }
-  for (int i = 0; i < mo->njnt; i++) {
-    mo->jnt_margin[i] += la;
-  }
+  ost_widenMargins(mo, c->opt.margin);
   if (c->opt.geometry == OST_GEOMETRY_NATIVE) {
     return ost_nativeReady(c, m);
   }
@@ -227,8 +238,7 @@ static int geometryCallback(void* ctx, const ostNum* u) {
 static int newton(ostContext* c, mjData* d, mjtNum h, mjtNum* residual) {
   ostWorld* w = &c->world;
   const ostOptions* o = &c->opt;
-  ostSolverOptions so = {o->newton_iter, o->pcr_iter, o->k_min, 0,      o->tol,
-                         o->pcr_tol,     o->fb_eps,   o->regularization, o->friction_creep};
+  ostSolverOptions so = ost_solverOptions(o);
   int nv = w->nv, nrow_k[mjNSOLVER];
   mjtNum merit_k[mjNSOLVER];
 
