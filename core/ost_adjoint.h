@@ -31,6 +31,70 @@
 extern "C" {
 #endif
 
+typedef struct ostdStep_ {        // one committed (sub)step, as its backward pass needs it
+  const void*   model;            // the packed ostModel (double) the step was taken with
+  const double* qpos_prev;        // q-                                                 (nq)
+  const double* qvel_prev;        // u-                                                 (nv)
+  const double* qvel;             // u+, the step's solution                            (nv)
+  const double* ctrl;             // controls                                           (nu)
+  const double* qfrc_applied;     // applied generalized forces (NULL: none)            (nv)
+  const double* xfrc_applied;     // applied body wrenches (NULL: none)          (nbody x 6)
+  const void*   rows;             // the solution's rows (ostRow, double)             (nrow)
+  const double* lambda;           // the solution's multipliers                       (nrow)
+  int           nrow;             // rows of the solution
+  int           truncate;         // 1: contact geometry held fixed within the step
+  double        h;                // step size (s)
+  double        lookahead;        // Ostrich's look-ahead distance (m)
+  double        reg;              // relative compliance (ostOptions.regularization)
+  double        creep;            // sticking creep (ostOptions.friction_creep, s/kg)
+  double        fb_eps;           // Fischer-Burmeister smoothing
+  int           nparam;           // parameter columns (0: none)
+  const int*    param_adr;        // offsets of the ostParam groups in theta (OST_NPARAM + 1)
+  const int*    pair_fric_geom;   // per candidate pair: the geoms whose friction it takes
+                                  // (-1: none), so dmu/dtheta                  (npair x 2)
+  const double* pair_fric_weight; // their weights (1, or 1/2 each at a tie)     (npair x 2)
+} ostdStep;
+
+
+// the implicit function theorem on one step's Jacobian G (ost_adjoint_jacobian.h's layout: ny
+// residual rows then 2 nv output rows, ncol columns y then xi): with g = (gq, gu) the cotangents
+// of (dq+, u+),  K' w = -O_y' g  (K = R_y),  gxi = O_xi' g + R_xi' w  (ncol - ny entries).
+// Plain doubles whatever ostNum is. K (ny x ny), piv (ny) and w (ny) are scratch.
+// Returns 0, or 1 + the column where K is singular.
+OST_HD int osti_adjointSolve(const double* G, int ny, int nv, int ncol, double* K, int* piv,
+                             double* w, const double* gq, const double* gu, double* gxi) {
+  for (int i = 0; i < ny; i++) {
+    for (int j = 0; j < ny; j++) {
+      K[(size_t)i * ny + j] = G[(size_t)i * ncol + j];
+    }
+  }
+  int rc = ostu_luFactor(K, piv, ny);
+  if (rc) {
+    return rc;
+  }
+  for (int j = 0; j < ny; j++) {
+    double s = 0;
+    for (int i = 0; i < nv; i++) {
+      s += G[(size_t)(ny + i) * ncol + j] * gq[i] + G[(size_t)(ny + nv + i) * ncol + j] * gu[i];
+    }
+    w[j] = -s;
+  }
+  ostu_luSolveT(w, K, piv, w, ny);
+  for (int j = 0; j < ncol - ny; j++) {
+    int col = ny + j;
+    double s = 0;
+    for (int i = 0; i < nv; i++) {
+      s += G[(size_t)(ny + i) * ncol + col] * gq[i] + G[(size_t)(ny + nv + i) * ncol + col] * gu[i];
+    }
+    for (int i = 0; i < ny; i++) {
+      s += G[(size_t)i * ncol + col] * w[i];
+    }
+    gxi[j] = s;
+  }
+  return 0;
+}
+
+
 // q <- q (x) exp(v) for a unit quaternion q and a rotation vector v in q's local frame
 // (mju_quatIntegrate with scale 1). Below a rotation of 1e-6 rad the exponential is its series
 // 1 - |v|^2/8, (v/2)(1 - |v|^2/24): the value agrees to 1e-24 and the first derivative at v = 0

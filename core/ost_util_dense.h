@@ -121,11 +121,12 @@ OST_HD ostNum ostu_cholNormSqr(ostNum* OST_RESTRICT y, const ostNum* L, const os
 // in-place LU factorization P A = L U of a general (n x n) matrix with partial pivoting
 // (L unit lower, U upper, both stored in A); piv[i] is the row swapped with i. Returns 0, or
 // 1 + the column whose pivot is zero (mju_factorLU's role; the adjoint's Jacobians are not
-// symmetric)
-OST_HD int ostu_luFactor(ostNum* A, int* piv, int n) {
+// symmetric). The LU functions take double whatever ostNum is: the adjoint's matrices are
+// plain numbers even in a dual-number translation unit.
+OST_HD int ostu_luFactor(double* A, int* piv, int n) {
   for (int j = 0; j < n; j++) {
     int p = j;
-    ostNum best = fabs(A[j * n + j]);
+    double best = fabs(A[j * n + j]);
     for (int i = j + 1; i < n; i++) {
       if (fabs(A[i * n + j]) > best) {
         best = fabs(A[i * n + j]);
@@ -138,13 +139,13 @@ OST_HD int ostu_luFactor(ostNum* A, int* piv, int n) {
     }
     if (p != j) {
       for (int k = 0; k < n; k++) {
-        ostNum t = A[j * n + k];
+        double t = A[j * n + k];
         A[j * n + k] = A[p * n + k];
         A[p * n + k] = t;
       }
     }
     for (int i = j + 1; i < n; i++) {
-      ostNum l = A[i * n + j] / A[j * n + j];
+      double l = A[i * n + j] / A[j * n + j];
       A[i * n + j] = l;
       for (int k = j + 1; k < n; k++) {
         A[i * n + k] -= l * A[j * n + k];
@@ -156,20 +157,20 @@ OST_HD int ostu_luFactor(ostNum* A, int* piv, int n) {
 
 
 // solve A' x = b with the factor of ostu_luFactor (U' L' P x = b); x and b may alias
-OST_HD void ostu_luSolveT(ostNum* x, const ostNum* LU, const int* piv, const ostNum* b, int n) {
+OST_HD void ostu_luSolveT(double* x, const double* LU, const int* piv, const double* b, int n) {
   for (int i = 0; i < n; i++) {
     x[i] = b[i];
   }
   // U' y = b (forward), then L' z = y (backward), then x = P' z
   for (int i = 0; i < n; i++) {
-    ostNum s = x[i];
+    double s = x[i];
     for (int k = 0; k < i; k++) {
       s -= LU[k * n + i] * x[k];
     }
     x[i] = s / LU[i * n + i];
   }
   for (int i = n - 1; i >= 0; i--) {
-    ostNum s = x[i];
+    double s = x[i];
     for (int k = i + 1; k < n; k++) {
       s -= LU[k * n + i] * x[k];
     }
@@ -177,7 +178,7 @@ OST_HD void ostu_luSolveT(ostNum* x, const ostNum* LU, const int* piv, const ost
   }
   for (int i = n - 1; i >= 0; i--) {
     if (piv[i] != i) {
-      ostNum t = x[i];
+      double t = x[i];
       x[i] = x[piv[i]];
       x[piv[i]] = t;
     }
@@ -186,26 +187,26 @@ OST_HD void ostu_luSolveT(ostNum* x, const ostNum* LU, const int* piv, const ost
 
 
 // solve A x = b with the factor of ostu_luFactor; x and b may alias
-OST_HD void ostu_luSolve(ostNum* x, const ostNum* LU, const int* piv, const ostNum* b, int n) {
+OST_HD void ostu_luSolve(double* x, const double* LU, const int* piv, const double* b, int n) {
   for (int i = 0; i < n; i++) {
     x[i] = b[i];
   }
   for (int i = 0; i < n; i++) {
     if (piv[i] != i) {
-      ostNum t = x[i];
+      double t = x[i];
       x[i] = x[piv[i]];
       x[piv[i]] = t;
     }
   }
   for (int i = 0; i < n; i++) {
-    ostNum s = x[i];
+    double s = x[i];
     for (int k = 0; k < i; k++) {
       s -= LU[i * n + k] * x[k];
     }
     x[i] = s;
   }
   for (int i = n - 1; i >= 0; i--) {
-    ostNum s = x[i];
+    double s = x[i];
     for (int k = i + 1; k < n; k++) {
       s -= LU[i * n + k] * x[k];
     }

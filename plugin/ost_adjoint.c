@@ -157,10 +157,10 @@ static int adjointScratch(ostContext* c, size_t n) {
 }
 
 
-// the exact Jacobian G of record r into the scratch; *ny = nv + rows, K = G[0:ny, 0:ny] is
-// LU-factored in place when factor is set (pivots after G)
+// the exact Jacobian G of record r into the scratch; *ny = nv + rows; with factor set, K =
+// G[0:ny, 0:ny] is copied after G and LU-factored there (pivots after K)
 static int recordJacobian(ostContext* c, const mjModel* m, const ostRecord* r, int truncate,
-                          int params, int* ny, int** piv) {
+                          int params, int factor, int* ny, int** piv) {
   int nv = m->nv, nparam = params ? ost_nparam(m) : 0, status;
   int adr[OST_NPARAM + 1];
   for (int g = 0; g <= OST_NPARAM; g++) {
@@ -190,6 +190,9 @@ static int recordJacobian(ostContext* c, const mjModel* m, const ostRecord* r, i
   mjtNum* G = c->adj_scratch;
   mjtNum* K = G + (size_t)(*ny + 2 * nv) * ncol;
   *piv = (int*)(K + (size_t)*ny * *ny);  // ny ints in the room of ny doubles
+  if (!factor) {
+    return OST_OK;
+  }
   for (int i = 0; i < *ny; i++) {
     memcpy(K + (size_t)i * *ny, G + (size_t)i * ncol, *ny * sizeof(mjtNum));
   }
@@ -207,36 +210,16 @@ static int recordBackward(ostContext* c, const mjModel* m, const ostRecord* r,
                           mjtNum* gtheta) {
   int nv = m->nv, nu = m->nu, ny, *piv, status;
   int nparam = go->params && gtheta ? ost_nparam(m) : 0;
-  if ((status = recordJacobian(c, m, r, go->truncate, nparam > 0, &ny, &piv))) {
+  if ((status = recordJacobian(c, m, r, go->truncate, nparam > 0, 0, &ny, &piv))) {
     return status;
   }
-  int nxi = 2 * nv + nu + nparam, ncol = ny + nxi;
+  int ncol = ny + 2 * nv + nu + nparam;
   const mjtNum* G = c->adj_scratch;
-  const mjtNum* K = G + (size_t)(ny + 2 * nv) * ncol;
-  mjtNum* w = (mjtNum*)K + (size_t)ny * ny + ny;
+  mjtNum* K = c->adj_scratch + (size_t)(ny + 2 * nv) * ncol;
+  mjtNum* w = K + (size_t)ny * ny + ny;
   mjtNum* gxi = w + ny;
-
-  // w = -K'^-1 O_y' g
-  for (int j = 0; j < ny; j++) {
-    mjtNum s = 0;
-    for (int i = 0; i < nv; i++) {
-      s += G[(size_t)(ny + i) * ncol + j] * gq[i] + G[(size_t)(ny + nv + i) * ncol + j] * gu[i];
-    }
-    w[j] = -s;
-  }
-  ostu_luSolveT(w, K, piv, w, ny);
-
-  // dL/dxi = O_xi' g + R_xi' w
-  for (int j = 0; j < nxi; j++) {
-    int col = ny + j;
-    mjtNum s = 0;
-    for (int i = 0; i < nv; i++) {
-      s += G[(size_t)(ny + i) * ncol + col] * gq[i] + G[(size_t)(ny + nv + i) * ncol + col] * gu[i];
-    }
-    for (int i = 0; i < ny; i++) {
-      s += G[(size_t)i * ncol + col] * w[i];
-    }
-    gxi[j] = s;
+  if (osti_adjointSolve(G, ny, nv, ncol, K, piv, w, gq, gu, gxi)) {
+    return ost_fail(c, OST_ERR_NUMERIC, "the step's Jacobian is singular");
   }
   memcpy(gq, gxi, nv * sizeof(mjtNum));
   memcpy(gu, gxi + nv, nv * sizeof(mjtNum));
@@ -333,7 +316,7 @@ static int recordsTransition(ostContext* c, const mjModel* m, void* recs, int n,
     ostRecord r;
     ost_recordView(m, c->world.nrow_max, (char*)recs + k * sz, &r);
     int ny, *piv;
-    if ((status = recordJacobian(c, m, &r, 0, 0, &ny, &piv))) {
+    if ((status = recordJacobian(c, m, &r, 0, 0, 1, &ny, &piv))) {
       break;
     }
     int ncol = ny + nx + nu;

@@ -1,6 +1,7 @@
 // ost_adjoint.h: the internal seam between the adjoint's host code (ost_adjoint.c, C) and the
-// dual-number evaluation of a step's residual (ost_adjoint_dual.cc, C++). Plain C types only,
-// so that it can be included where ostNum is double and where it is a dual number.
+// dual-number evaluation of a step's residual (ost_adjoint_dual.cc, C++, on core's
+// ost_adjoint_jacobian.h). Plain C types only, so that it can be included where ostNum is double
+// and where it is a dual number.
 // Invariant: the dual side reads the packed model and the inputs, and writes only its own work
 // block and the caller's output matrix.
 #ifndef OSTRICH_PLUGIN_OST_ADJOINT_H_
@@ -8,33 +9,13 @@
 
 #include <stddef.h>
 
+#include "../core/ost_adjoint.h"
+
 #ifdef __cplusplus
 extern "C" {
 #endif
 
-typedef struct ostdStep_ {        // one committed (sub)step, as the backward pass needs it
-  const void*   model;            // the packed ostModel (double) the step is evaluated with
-  const double* qpos_prev;        // q-                                                 (nq)
-  const double* qvel_prev;        // u-                                                 (nv)
-  const double* qvel;             // u+, the step's solution                            (nv)
-  const double* ctrl;             // controls                                           (nu)
-  const double* qfrc_applied;     // applied generalized forces (NULL: none)            (nv)
-  const double* xfrc_applied;     // applied body wrenches (NULL: none)          (nbody x 6)
-  const void*   rows;             // the solution's rows (ostRow, double)             (nrow)
-  const double* lambda;           // the solution's multipliers                       (nrow)
-  int           nrow;             // rows of the solution
-  int           truncate;         // 1: contact geometry held fixed within the step
-  double        h;                // step size (s)
-  double        lookahead;        // Ostrich's look-ahead distance (m)
-  double        reg;              // relative compliance (ostOptions.regularization)
-  double        creep;            // sticking creep (ostOptions.friction_creep, s/kg)
-  double        fb_eps;           // Fischer-Burmeister smoothing
-  int           nparam;           // parameter columns (0: none)
-  const int*    param_adr;        // offsets of the ostParam groups in theta (OST_NPARAM + 1)
-  const int*    pair_fric_geom;   // per candidate pair: the geoms whose friction it takes
-                                  // (-1: none), so dmu/dtheta                  (npair x 2)
-  const double* pair_fric_weight; // their weights (1, or 1/2 each at a tie)     (npair x 2)
-} ostdStep;
+// ostdStep (one committed substep) is core's, core/ost_adjoint.h
 
 // Work block of the dual evaluation for a packed model with row capacity nrow_max (NULL if
 // allocation fails).
