@@ -95,6 +95,146 @@ OST_HD int osti_adjointSolve(const double* G, int ny, int nv, int ncol, double* 
 }
 
 
+//---------------------------------- Substep records and the batch's adjoint lanes ----------------
+// Both are plain doubles and ints, whatever ostNum is: core/ost_batch_adjoint.h writes them in a
+// double translation unit and ost_adjoint_jacobian.h reads them in a dual one.
+
+// bytes of one ostRow of the double build
+#define OST_ROW_BYTES (4 * sizeof(int) + 8 * sizeof(double))
+
+typedef struct ostStepRec_ {      // one committed substep (pointers into a record block)
+  int*    step;                   // the step it belongs to
+  int*    nrow;                   // rows of its solution
+  double* h;                      // its size (s)
+  double* qpos_prev;              // q-                                                   (nq)
+  double* qvel_prev;              // u-                                                   (nv)
+  double* qvel;                   // u+                                                   (nv)
+  double* ctrl;                   // controls                                             (nu)
+  double* lambda;                 // multipliers                                    (nrow_max)
+  void*   rows;                   // rows (ostRow of the double build)              (nrow_max)
+} ostStepRec;
+
+
+// bytes of one record for sizes s and row capacity nrow_max (a 64-byte multiple)
+OST_HD size_t ostu_stepRecSize(ostSizes s, int nrow_max) {
+  size_t nd = 1 + (size_t)s.nq + 2 * (size_t)s.nv + s.nu + nrow_max;
+  return OST_ALIGN64(2 * sizeof(int) + nd * sizeof(double) + nrow_max * OST_ROW_BYTES);
+}
+
+
+// the record at p
+OST_HD void ostu_stepRecView(ostStepRec* r, char* p, ostSizes s, int nrow_max) {
+  r->step = (int*)p;
+  r->nrow = r->step + 1;
+  double* d = (double*)(p + 2 * sizeof(int));
+  r->h = d;              d += 1;
+  r->qpos_prev = d;      d += s.nq;
+  r->qvel_prev = d;      d += s.nv;
+  r->qvel = d;           d += s.nv;
+  r->ctrl = d;           d += s.nu;
+  r->lambda = d;         d += nrow_max;
+  r->rows = d;
+}
+
+
+typedef struct ostAdjointSettings_ { // what a record's backward pass needs besides the record
+  double h;                       // the step (s): substeps are recorded with their own size
+  double lookahead;               // look-ahead distance (m)
+  double reg;                     // relative compliance (ostOptions.regularization)
+  double creep;                   // sticking creep (s/kg)
+  double fb_eps;                  // Fischer-Burmeister smoothing
+  int    truncate;                // 1: contact geometry held fixed within a step
+  int    pad;
+} ostAdjointSettings;
+
+// one adjoint lane's arrays (type, name, count): the world it replays, its segment checkpoints
+// and records, the dual work, the Jacobian and its solve, the running cotangent; sizes from an
+// ostAdjointLayout A
+#define OST_ADJOINT_LANE_ARRAYS(X)                                                               \
+  X(char,   work,  A->lane_stride)                  /* a batch lane: the step's work arrays  */ \
+  X(char,   cur,   A->world_stride)                 /* the world being replayed              */ \
+  X(char,   ckpt,  A->world_stride * A->nseg)       /* the world at each segment's start     */ \
+  X(char,   rec,   A->rec_size * A->rec_cap)        /* the segment's substep records         */ \
+  X(char,   jac,   A->jac_size)                     /* dual work (ostJacWork's block)        */ \
+  X(double, G,     (size_t)(A->ny_max + 2 * A->s.nv) * A->ncol_max) /* step Jacobian          */ \
+  X(double, K,     (size_t)A->ny_max * A->ny_max)   /* its y block, LU-factored              */ \
+  X(int,    piv,   A->ny_max)                       /* pivots                                */ \
+  X(double, w,     A->ny_max)                       /* K' w = -O_y' g                        */ \
+  X(double, gxi,   A->ncol_max)                     /* cotangent of (dq-, u-, ctrl)          */ \
+  X(double, g,     2 * A->s.nv)                     /* running cotangent of (q, u)           */ \
+  X(int,    info,  4)                               /* records, step, failed, spare          */
+
+#define OST_ADJ_NREC   0          // info[]: records of the current segment
+#define OST_ADJ_STEP   1          // the step whose records are being processed (T: none yet)
+#define OST_ADJ_FAILED 2          // OST_STEP_* bit of a failed rollout or backward pass (0: none)
+
+typedef struct ostAdjointLayout_ {  // where each array of an adjoint lane sits
+  ostSizes s;                     // the model's sizes
+  int    nrow_max;                // row capacity
+  int    nseg;                    // segments of the rollout
+  int    seg;                     // steps per segment (the checkpoint interval)
+  int    rec_cap;                 // records a segment may hold
+  int    ny_max;                  // nv + nrow_max
+  int    ncol_max;                // ny_max + 2 nv + nu
+  int    nlane;                   // lanes
+  int    pad;
+  size_t world_stride;            // bytes of one world (ostBatchLayout.stride)
+  size_t lane_stride;             // bytes of one batch lane (ostBatchLayout.lane_stride)
+  size_t rec_size;                // bytes of one record
+  size_t jac_size;                // bytes of the dual work (ostx_jacWorkSize)
+  size_t stride;                  // bytes from one lane to the next (64-byte multiple)
+  size_t total;                   // bytes of all lanes
+#define X(type, name, n) size_t name;
+  OST_ADJOINT_LANE_ARRAYS(X)
+#undef X
+} ostAdjointLayout;
+
+typedef struct ostAdjointLane_ {  // one lane's arrays
+#define X(type, name, n) type* name;
+  OST_ADJOINT_LANE_ARRAYS(X)
+#undef X
+} ostAdjointLane;
+
+
+// the layout of nlane adjoint lanes (A->s, nrow_max, nseg, seg, rec_cap, world_stride,
+// lane_stride and jac_size set by the caller)
+OST_HD void ostu_adjointLayout(ostAdjointLayout* A, int nlane) {
+  A->nlane = nlane;
+  A->ny_max = A->s.nv + A->nrow_max;
+  A->ncol_max = A->ny_max + 2 * A->s.nv + A->s.nu;
+  A->rec_size = ostu_stepRecSize(A->s, A->nrow_max);
+  size_t off = 0;
+#define X(type, name, n)                 \
+  A->name = off;                         \
+  off += OST_ALIGN64((size_t)(n) * sizeof(type));
+  OST_ADJOINT_LANE_ARRAYS(X)
+#undef X
+  A->stride = off;
+  A->total = off * (size_t)nlane;
+}
+
+
+// lane l's arrays in the allocation at base
+OST_HD void ostu_adjointLane(ostAdjointLane* v, const ostAdjointLayout* A, char* base, int l) {
+  char* p = base + (size_t)l * A->stride;
+#define X(type, name, n) v->name = (type*)(p + A->name);
+  OST_ADJOINT_LANE_ARRAYS(X)
+#undef X
+}
+
+
+// g += the cotangents of world i's state after step t - 1 (time index t)
+OST_HD void osti_adjointInject(const ostAdjointLayout* A, const ostAdjointLane* al, int i,
+                               int nworld, int t, const double* gq, const double* gu) {
+  int nv = A->s.nv;
+  size_t at = ((size_t)t * nworld + i) * nv;
+  for (int j = 0; j < nv; j++) {
+    al->g[j] += gq ? gq[at + j] : 0;
+    al->g[nv + j] += gu ? gu[at + j] : 0;
+  }
+}
+
+
 // q <- q (x) exp(v) for a unit quaternion q and a rotation vector v in q's local frame
 // (mju_quatIntegrate with scale 1). Below a rotation of 1e-6 rad the exponential is its series
 // 1 - |v|^2/8, (v/2)(1 - |v|^2/24): the value agrees to 1e-24 and the first derivative at v = 0

@@ -243,4 +243,49 @@ OST_HD int ostx_stepJacobian(ostJacWork* wk, const ostdStep* st, double* G, size
   return 0;
 }
 
+
+// phase 3 of a batch world's backward pass (core/ost_batch_adjoint.h): record nrec - 1 - j of
+// lane l's segment (nothing if j >= nrec or the world failed). g, the cotangent of the record's
+// (q+, u+) once the cotangents of later times are in, becomes that of its (q-, u-); its
+// controls' cotangent accumulates into gctrl ((T x nworld x nu), or NULL). m: the dual model,
+// shared by all lanes (no parameters are seeded).
+OST_HD void ostx_adjointRecord(ostModel* m, const ostAdjointLayout* A, char* lanes, int l, int i,
+                               int nworld, int j, const ostAdjointSettings* as, const double* gq,
+                               const double* gu, double* gctrl) {
+  ostAdjointLane al;
+  ostu_adjointLane(&al, A, lanes, l);
+  int* info = al.info;
+  if (info[OST_ADJ_FAILED] || j >= info[OST_ADJ_NREC]) {
+    return;
+  }
+  ostStepRec r;
+  ostu_stepRecView(&r, al.rec + (size_t)(info[OST_ADJ_NREC] - 1 - j) * A->rec_size, A->s,
+                   A->nrow_max);
+  while (info[OST_ADJ_STEP] > *r.step + 1) {
+    info[OST_ADJ_STEP]--;
+    osti_adjointInject(A, &al, i, nworld, info[OST_ADJ_STEP], gq, gu);
+  }
+  ostdStep st = {NULL, r.qpos_prev, r.qvel_prev, r.qvel, r.ctrl, NULL, NULL, r.rows, r.lambda,
+                 *r.nrow, as->truncate, *r.h, as->lookahead, as->reg, as->creep, as->fb_eps,
+                 0, NULL, NULL, NULL};
+  ostJacWork jw;
+  ostx_jacWorkInit(&jw, al.jac, m, A->nrow_max);
+  int nv = A->s.nv, nu = A->s.nu, ny;
+  double resid;
+  size_t G_cap = (size_t)(A->ny_max + 2 * nv) * A->ncol_max;
+  if (ostx_stepJacobian(&jw, &st, al.G, G_cap, &ny, &resid)) {
+    info[OST_ADJ_FAILED] = OST_STEP_OVERFLOW;  // the rows at q+ exceed the capacity
+    return;
+  }
+  int ncol = ny + 2 * nv + nu;
+  if (osti_adjointSolve(al.G, ny, nv, ncol, al.K, al.piv, al.w, al.g, al.g + nv, al.gxi)) {
+    info[OST_ADJ_FAILED] = OST_STEP_NAN;  // singular Jacobian
+    return;
+  }
+  for (int k = 0; k < 2 * nv; k++) al.g[k] = al.gxi[k];
+  for (int a = 0; gctrl && a < nu; a++) {
+    gctrl[((size_t)*r.step * nworld + i) * nu + a] += al.gxi[2 * nv + a];
+  }
+}
+
 #endif  // OSTRICH_CORE_OST_ADJOINT_JACOBIAN_H_

@@ -1,12 +1,15 @@
 // ost_batch.h: the memory layout of a batch of worlds of one model and the per-world rollout
-// that the CPU batch (plugin/ost_batch.c, threads) and the CUDA batch (cuda/ost_batch.cu, a
-// thread per world) both run. Mirrors engine_io.c (mj_makeData's one allocation) and MuJoCo
-// Warp's leading world dimension.
-// Layout contract: one 64-byte-aligned allocation, world-major: world i's arrays start at
-// i * stride; within a world every array of OST_BATCH_ARRAYS sits at its own 64-byte-aligned
-// offset. The table is the only description of the layout: it drives the size, the pointer
-// setup and the host<->device copies of states and controls.
-// Invariant: world i's code reads the model and writes only world i's slice.
+// that the CPU batch (plugin/ost_batch.c, threads) and the CUDA batch (cuda/ost_batch.cu) both
+// run. Mirrors engine_io.c (mj_makeData's one allocation) and MuJoCo Warp's leading world
+// dimension.
+// Layout contract: a world is only what persists between steps (state, controls, outcome, the
+// warm start: OST_BATCH_ARRAYS); what a step works in (kinematics, contacts, Newton's arrays:
+// OST_LANE_ARRAYS) belongs to a lane, and a lane steps one world at a time. Worlds and lanes are
+// each one 64-byte-aligned allocation, i * stride apart; within one, every array sits at its own
+// 64-byte-aligned offset. The tables are the only description of the layout: they drive the
+// sizes, the pointer setup and the host<->device copies of states and controls.
+// Invariant: the code stepping world i reads the model and writes only world i's slice and its
+// lane's.
 #ifndef OSTRICH_CORE_OST_BATCH_H_
 #define OSTRICH_CORE_OST_BATCH_H_
 
@@ -23,28 +26,38 @@ extern "C" {
 
 // one world's slice (type, name, count); sizes from an ostSizes s and the row capacity nrow_max
 #define OST_BATCH_ARRAYS(X)                                                                     \
-  X(ostNum, qpos,      s.nq)                          /* generalized coordinates            */ \
-  X(ostNum, qvel,      s.nv)                          /* generalized velocities             */ \
-  X(ostNum, ctrl,      s.nu)                          /* controls of the next step          */ \
-  X(ostNum, qacc_warm, s.nv)                          /* last step's (u+ - u-) / h          */ \
-  X(ostNum, time,      1)                             /* simulated time (s)                 */ \
-  X(ostNum, residual,  1)                             /* last step's largest best merit     */ \
-  X(int,    status,    1)                             /* last step's OST_STEP_* bits        */ \
-  X(int,    warm,      1)                             /* 1: rows_warm belong to this state  */ \
-  X(int,    nrow_warm, 1)                             /* rows of the last result            */ \
-  X(int,    substeps,  1)                             /* last step's substeps               */ \
+  X(ostNum, qpos,        s.nq)                        /* generalized coordinates            */ \
+  X(ostNum, qvel,        s.nv)                        /* generalized velocities             */ \
+  X(ostNum, ctrl,        s.nu)                        /* controls of the next step          */ \
+  X(ostNum, qacc_warm,   s.nv)                        /* last step's (u+ - u-) / h          */ \
+  X(ostNum, time,        1)                           /* simulated time (s)                 */ \
+  X(ostNum, residual,    1)                           /* last step's largest best merit     */ \
+  X(int,    status,      1)                           /* last step's OST_STEP_* bits        */ \
+  X(int,    warm,        1)                           /* 1: rows_warm belong to this state  */ \
+  X(int,    nrow_warm,   1)                           /* rows of the last result            */ \
+  X(int,    substeps,    1)                           /* last step's substeps               */ \
+  X(ostRow, rows_warm,   nrow_max)                    /* rows of the last result            */ \
+  X(ostNum, lambda_warm, nrow_max)                    /* their multipliers                  */
+
+// one lane's work arrays
+#define OST_LANE_ARRAYS(X)                                                                      \
   X(ostNum, scratch,   2 * s.nq + s.nv)               /* osti_stepNative's scratch          */ \
   X(char,   kin,       ostu_kinSize(s))               /* kinematics and contacts (ostKin)   */ \
   X(char,   world,     ostu_worldSize(s.nv, nrow_max)) /* Newton's arrays (ostWorld)         */
 
-typedef struct ostBatchLayout_ {  // where each array of a world sits
+typedef struct ostBatchLayout_ {  // where each array of a world and of a lane sits
   ostSizes s;                     // the model's sizes
   int    nrow_max;                // row capacity of a world
   int    nworld;                  // worlds
+  int    nlane;                   // lanes
+  int    pad;
   size_t stride;                  // bytes from one world to the next (64-byte multiple)
-  size_t total;                   // bytes of the whole allocation (nworld x stride)
-#define X(type, name, n) size_t name;  // offset of the array within a world (bytes)
+  size_t total;                   // bytes of all worlds (nworld x stride)
+  size_t lane_stride;             // bytes from one lane to the next (64-byte multiple)
+  size_t lane_total;              // bytes of all lanes (nlane x lane_stride)
+#define X(type, name, n) size_t name;  // offset of the array within a world or lane (bytes)
   OST_BATCH_ARRAYS(X)
+  OST_LANE_ARRAYS(X)
 #undef X
 } ostBatchLayout;
 
@@ -54,28 +67,47 @@ typedef struct ostBatchView_ {    // world i's arrays
 #undef X
 } ostBatchView;
 
+typedef struct ostLaneView_ {     // lane l's arrays
+#define X(type, name, n) type* name;
+  OST_LANE_ARRAYS(X)
+#undef X
+} ostLaneView;
 
-// the layout of nworld worlds of a model with sizes s and row capacity nrow_max
-OST_HD void ostu_batchLayout(ostBatchLayout* L, ostSizes s, int nrow_max, int nworld) {
-  size_t off = 0;
+
+// the layout of nworld worlds and nlane lanes of a model with sizes s, row capacity nrow_max
+OST_HD void ostu_batchLayout(ostBatchLayout* L, ostSizes s, int nrow_max, int nworld, int nlane) {
   L->s = s;
   L->nrow_max = nrow_max;
   L->nworld = nworld;
+  L->nlane = nlane;
+  L->pad = 0;
+  size_t off = 0;
 #define X(type, name, n)                                     \
   L->name = off;                                             \
   off += OST_ALIGN64((size_t)(n) * sizeof(type));
   OST_BATCH_ARRAYS(X)
-#undef X
   L->stride = off;
-  L->total = off * (size_t)nworld;
+  off = 0;
+  OST_LANE_ARRAYS(X)
+#undef X
+  L->lane_stride = off;
+  L->total = L->stride * (size_t)nworld;
+  L->lane_total = L->lane_stride * (size_t)nlane;
 }
 
 
-// world i's arrays in the allocation at base
-OST_HD void ostu_batchView(ostBatchView* v, const ostBatchLayout* L, char* base, int i) {
-  char* p = base + (size_t)i * L->stride;
+// the arrays of the world slice at p
+OST_HD void ostu_batchView(ostBatchView* v, const ostBatchLayout* L, char* p) {
 #define X(type, name, n) v->name = (type*)(p + L->name);
   OST_BATCH_ARRAYS(X)
+#undef X
+}
+
+
+// the arrays of the lane slice at p
+OST_HD void ostu_laneView(ostLaneView* v, const ostBatchLayout* L, char* p) {
+#define X(type, name, n) v->name = (type*)(p + L->name);
+  OST_LANE_ARRAYS(X)
 #undef X
 }
 
@@ -91,25 +123,31 @@ OST_HD int osti_allFinite(const ostNum* x, int n) {
 }
 
 
-// T steps of world i. Sequences are step-major, world-minor (T x nworld x n): before step t
-// world i's controls are ctrl_seq[(t nworld + i) nu ..] (NULL: keep the world's ctrl); after
-// step t its qpos and qvel go to qpos_out[(t nworld + i) nq ..] and qvel_out[(t nworld + i) nv
-// ..] (NULL: not kept). A world whose status has a failure bit is not stepped (its outputs
-// repeat its state) until its state is set again; a step with non-finite state or controls is
-// not taken and sets OST_STEP_NAN.
-OST_HD void osti_batchRollout(const ostModel* m, const ostBatchLayout* L, char* base, int i,
-                              const ostStepSettings* set, int T, const ostNum* ctrl_seq,
-                              ostNum* qpos_out, ostNum* qvel_out) {
+// steps [t0, t1) of the world slice `world` (world i of nworld), working in the lane slice
+// `lane`. Sequences are step-major, world-minor (T x nworld x n): before step t the world's
+// controls are ctrl_seq[(t nworld + i) nu ..] (NULL: keep the world's ctrl); after step t its
+// qpos and qvel go to qpos_out[(t nworld + i) nq ..] and qvel_out[(t nworld + i) nv ..] (NULL:
+// not kept). A world whose status has a failure bit is not stepped (its outputs repeat its
+// state) until its state is set again; a step with non-finite state or controls is not taken
+// and sets OST_STEP_NAN. sink (or NULL) records the committed substeps.
+OST_HD void osti_worldRollout(const ostModel* m, const ostBatchLayout* L, char* world, char* lane,
+                              int i, const ostStepSettings* set, int t0, int t1,
+                              const ostNum* ctrl_seq, ostNum* qpos_out, ostNum* qvel_out,
+                              ostRecordSink* sink) {
   ostSizes s = L->s;
   size_t nw = (size_t)L->nworld;
   ostBatchView v;
+  ostLaneView lv;
   ostKin k;
   ostWorld w;
-  ostu_batchView(&v, L, base, i);
-  ostu_kinInit(&k, v.kin, s);
-  ostu_worldInit(&w, v.world, s.nv, L->nrow_max, set->h);
+  ostu_batchView(&v, L, world);
+  ostu_laneView(&lv, L, lane);
+  ostu_kinInit(&k, lv.kin, s);
+  ostu_worldInit(&w, lv.world, s.nv, L->nrow_max, set->h);
+  w.rows_warm = v.rows_warm;  // the warm start persists with the world, not the lane
+  w.lambda_warm = v.lambda_warm;
   w.nrow_warm = *v.nrow_warm;
-  for (int t = 0; t < T; t++) {
+  for (int t = t0; t < t1; t++) {
     if (ctrl_seq) {
       for (int a = 0; a < s.nu; a++) v.ctrl[a] = ctrl_seq[(t * nw + i) * s.nu + a];
     }
@@ -118,8 +156,11 @@ OST_HD void osti_batchRollout(const ostModel* m, const ostBatchLayout* L, char* 
           || !osti_allFinite(v.ctrl, s.nu)) {
         *v.status = OST_STEP_NAN;
       } else {
+        if (sink) {
+          sink->step = t;
+        }
         *v.status = osti_stepNative(m, &k, &w, v.qpos, v.qvel, v.ctrl, v.qacc_warm, v.warm,
-                                    v.scratch, set, v.substeps, v.residual);
+                                    lv.scratch, set, v.substeps, v.residual, sink);
         if (!(*v.status & OST_STEP_FAILED)) {
           *v.time += set->h;
         }
@@ -133,6 +174,15 @@ OST_HD void osti_batchRollout(const ostModel* m, const ostBatchLayout* L, char* 
     }
   }
   *v.nrow_warm = w.nrow_warm;
+}
+
+
+// T steps of world i of the batch, in lane l (osti_worldRollout from step 0)
+OST_HD void osti_batchRollout(const ostModel* m, const ostBatchLayout* L, char* worlds,
+                              char* lanes, int i, int l, const ostStepSettings* set, int T,
+                              const ostNum* ctrl_seq, ostNum* qpos_out, ostNum* qvel_out) {
+  osti_worldRollout(m, L, worlds + (size_t)i * L->stride, lanes + (size_t)l * L->lane_stride, i,
+                    set, 0, T, ctrl_seq, qpos_out, qvel_out, NULL);
 }
 
 #ifdef __cplusplus

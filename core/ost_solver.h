@@ -44,6 +44,14 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNu
                   "ostSolverOptions crosses the gcc/nvcc boundary: keep it unpadded");
 #endif
 
+// outcome bits of a world's step (osti_stepNative) and backward pass: ostrich.h's
+// ostStatusBits, written identically by the CPU and GPU batches
+#define OST_STEP_NOT_CONVERGED 1  // best merit above tol after the Newton budget
+#define OST_STEP_OVERFLOW      2  // contact or row capacity exceeded (the step was not taken)
+#define OST_STEP_NAN           4  // non-finite input or iterate (the step was not taken)
+#define OST_STEP_CHOL_FAIL     8  // M + h D not positive definite (the step was not taken)
+#define OST_STEP_FAILED (OST_STEP_OVERFLOW | OST_STEP_NAN | OST_STEP_CHOL_FAIL)
+
 // restart length of GMRES, the Krylov solver of Newton systems with sliding friction (below)
 #define OST_KRYLOV 32
 

@@ -137,14 +137,6 @@ OST_HD int osti_newton(ostWorld* w, const ostSolverOptions* so, int linesearch, 
 
 //---------------------------------- A whole step on core's geometry -------------------------------
 
-// outcome bits of a world's step: ostrich.h's ostStatusBits, written identically by the CPU
-// and GPU batches
-#define OST_STEP_NOT_CONVERGED 1  // best merit above tol after the Newton budget
-#define OST_STEP_OVERFLOW      2  // contact or row capacity exceeded (the step was not taken)
-#define OST_STEP_NAN           4  // non-finite input or iterate (the step was not taken)
-#define OST_STEP_CHOL_FAIL     8  // M + h D not positive definite (the step was not taken)
-#define OST_STEP_FAILED (OST_STEP_OVERFLOW | OST_STEP_NAN | OST_STEP_CHOL_FAIL)
-
 // deepest step splitting osti_stepNative supports (ostOptions.split_depth is at most 10)
 #define OST_SPLIT_MAX 10
 
@@ -234,16 +226,54 @@ OST_HD void osti_normalizeQuat(const ostModel* m, ostNum* qpos) {
 }
 
 
+typedef struct ostRecordSink_ {    // where osti_stepNative records committed substeps (or NULL)
+  char*    base;                  // cap records of ostu_stepRecSize(s, nrow_max) bytes
+  ostSizes s;
+  int      nrow_max;
+  int      cap;                   // records base holds
+  int      n;                     // substeps committed so far (> cap: some were not recorded)
+  int      step;                  // the step being taken (stored with its records)
+} ostRecordSink;
+
+
+// record the substep just solved in the world (q- in qpos_prev, size h) as sink's next record
+OST_HD void osti_recordSubstep(ostRecordSink* sink, const ostWorld* w, const ostNum* qpos_prev,
+                               const ostNum* ctrl, ostNum h) {
+  ostSizes s = sink->s;
+  if (sink->n++ >= sink->cap) {
+    return;
+  }
+  ostStepRec r;
+  ostu_stepRecView(&r, sink->base + (size_t)(sink->n - 1) * ostu_stepRecSize(s, sink->nrow_max),
+                   s, sink->nrow_max);
+  *r.step = sink->step;
+  *r.nrow = w->nrow;
+  *r.h = (double)h;
+  for (int i = 0; i < s.nq; i++) r.qpos_prev[i] = (double)qpos_prev[i];
+  for (int j = 0; j < s.nv; j++) {
+    r.qvel_prev[j] = (double)w->qvel_prev[j];
+    r.qvel[j] = (double)w->qvel[j];
+  }
+  for (int a = 0; a < s.nu; a++) r.ctrl[a] = (double)ctrl[a];
+  for (int i = 0; i < w->nrow; i++) {
+    r.lambda[i] = (double)w->lambda[i];
+    ((ostRow*)r.rows)[i] = w->rows[i];  // the double build's row (only called there)
+  }
+}
+
+
 // one Ostrich step of size set->h on core's geometry, in place on (qpos, qvel, qacc_warm).
 // Splitting (as the plugin's advance): a step whose best merit stays above split_tol is redone
 // from its start as two half steps, up to split_depth levels; the recursion runs on a stack of
 // depths (both halves of a split have the same depth). `warm` (0/1, in and out) says whether
 // the world's last result (rows_warm) belongs to this state. scratch: 2 nq + nv numbers.
 // Returns OST_STEP_* bits: on a failure bit the state is restored to the step's start.
-// *substeps and *worst get the substeps taken and their largest best merit.
+// *substeps and *worst get the substeps taken and their largest best merit. sink (or NULL)
+// records every committed substep for the backward pass.
 OST_HD int osti_stepNative(const ostModel* m, ostKin* k, ostWorld* w, ostNum* qpos, ostNum* qvel,
                            const ostNum* ctrl, ostNum* qacc_warm, int* warm, ostNum* scratch,
-                           const ostStepSettings* set, int* substeps, ostNum* worst) {
+                           const ostStepSettings* set, int* substeps, ostNum* worst,
+                           ostRecordSink* sink) {
   int nq = m->s.nq, nv = m->s.nv, stack[OST_SPLIT_MAX + 2], top = 0, bits = 0;
   ostNum* qpos_prev = scratch;       // q- of the substep (nq)
   ostNum* qpos_start = scratch + nq; // the step's start, for a failure (nq, then nv)
@@ -273,6 +303,9 @@ OST_HD int osti_stepNative(const ostModel* m, ostKin* k, ostWorld* w, ostNum* qp
     }
 
     // commit (q+, u+): qpos holds q- (+) h u+ from the best iterate's geometry
+    if (sink) {
+      osti_recordSubstep(sink, w, qpos_prev, ctrl, h);
+    }
     for (int j = 0; j < nv; j++) {
       qacc_warm[j] = (w->qvel[j] - w->qvel_prev[j]) / h;
       qvel[j] = w->qvel[j];

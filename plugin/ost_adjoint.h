@@ -33,6 +33,15 @@ void ostd_workFree(void* work);
 int ostd_stepJacobian(void* work, const ostdStep* s, double* G, size_t G_cap, int* n,
                       double* resid);
 
+// bytes of the dual work of one batch adjoint lane (ostAdjointLayout.jac_size)
+size_t ostd_jacWorkSize(const void* model, int nrow_max);
+
+// phase 3 of a batch world's backward pass (core/ost_adjoint_jacobian.h's ostx_adjointRecord)
+// on the dual model of a work from ostd_workCreate; many threads may share one work
+void ostd_adjointRecord(void* work, const ostAdjointLayout* A, char* lanes, int l, int i,
+                        int nworld, int j, const ostAdjointSettings* as, const double* gq,
+                        const double* gu, double* gctrl);
+
 #ifdef __cplusplus
 }
 #endif

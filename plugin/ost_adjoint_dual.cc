@@ -69,3 +69,15 @@ extern "C" int ostd_stepJacobian(void* work, const ostdStep* st, double* G, size
                                  int* n_out, double* resid) {
   return ostx_stepJacobian(&((Work*)work)->jw, st, G, G_cap, n_out, resid);
 }
+
+
+extern "C" size_t ostd_jacWorkSize(const void* model, int nrow_max) {
+  return ostx_jacWorkSize(((const ostModelDouble*)model)->s, nrow_max);
+}
+
+
+extern "C" void ostd_adjointRecord(void* work, const ostAdjointLayout* A, char* lanes, int l,
+                                   int i, int nworld, int j, const ostAdjointSettings* as,
+                                   const double* gq, const double* gu, double* gctrl) {
+  ostx_adjointRecord(&((Work*)work)->m, A, lanes, l, i, nworld, j, as, gq, gu, gctrl);
+}

@@ -1,8 +1,9 @@
-// ost_batch.c: the batched API of ostrich.h (many worlds of one model, one allocation) and its
-// CPU driver. The model is packed once (core's ostModel, margins widened by the look-ahead as
-// for ost_step); the worlds live in one 64-byte-aligned allocation laid out by core's
-// OST_BATCH_ARRAYS, on the host (`cpu`, split into contiguous chunks, one thread each) or on the
-// GPU (`cuda`, cuda/ost_batch.cu, one thread per world). Both run osti_batchRollout.
+// ost_batch.c: the batched API of ostrich.h (many worlds of one model) and its CPU driver. The
+// model is packed once (core's ostModel, margins widened by the look-ahead as for ost_step); the
+// worlds and the lanes that step them are laid out by core/ost_batch.h, on the host (`cpu`: a
+// lane per thread, each thread a contiguous chunk of worlds) or on the GPU (`cuda`,
+// cuda/ost_batch.cu: a lane per GPU thread, each looping over worlds). Both run
+// osti_batchRollout forward and core/ost_batch_adjoint.h's four phases backward.
 // Mirrors MAGMA's batched drivers: the host validates arguments, the per-world code never does.
 // Invariant: a world's result depends only on its own state and controls, never on the number
 // of threads, the device or its neighbours.
@@ -14,7 +15,8 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "ost_batch.h"
+#include "ost_adjoint.h"
+#include "ost_batch_adjoint.h"
 #include "ost_internal.h"
 
 #ifdef OSTRICH_HAVE_CUDA
@@ -23,24 +25,41 @@
 
 #define OST_BATCH_MAX_THREADS 256
 
+// lanes of the cuda batch's forward kernels: GPU threads, each stepping worlds l, l + nlane, ..
+#define OST_CUDA_LANES 32768
+
+// most lanes of the cuda batch's backward pass (fewer if the GPU's memory is short)
+#define OST_CUDA_ADJOINT_LANES 16384
+
+// substeps a backward segment of S steps may record: 2 S + 8 (a step split once takes 2, a
+// step split three levels deep 8)
+#define OST_RECORDS_PER_STEP 2
+#define OST_RECORDS_EXTRA 8
+
 struct ostBatch_ {
   int             cuda;           // 1: worlds live on the GPU
   int             nthread;        // CPU threads (cpu device)
   int             nq, nv, nu;     // the model's sizes
   ostStepSettings set;            // solver settings from the model's options
+  ostOptions      opt;            // the model's options
   ostModel        model;          // packed model (host)
   void*           model_block;    // its allocation
   size_t          model_bytes;    // its size
   ostModel        model_dev;      // the device copy (cuda)
   void*           model_dev_block;
-  ostBatchLayout  L;              // world layout
+  ostBatchLayout  L;              // world and lane layout
   char*           worlds;         // L.total bytes: host (cpu) or device (cuda)
+  char*           lanes;          // L.lane_total bytes, same place
   ostNum*         qpos0;          // the model's qpos0 (nq)
-  mjModel*        m;              // the user's model, copied (backward replays)
   int             fresh;          // 1: no step since ost_batchSetState
   int             rec_nstep;      // steps of the last rollout from a set state (0: none)
-  ostNum*         rec_start;      // its start states: nworld x (nq + nv)
-  ostNum*         rec_ctrl;       // its controls: rec_nstep x nworld x nu
+  char*           rec_start;      // its start: a copy of the worlds (host or device)
+  ostNum*         rec_ctrl;       // its controls, rec_nstep x nworld x nu (NULL: the worlds')
+  void*           adj_work;       // dual model for the backward pass (ostd_workCreate; cuda:
+                                  // its device copy)
+  void*           adj_dev_block;  // cuda: the device dual model's block
+  char*           adj_lanes;      // adjoint lanes (host or device)
+  size_t          adj_bytes;      // their size
   char            err[1000];      // last failure
 };
 
@@ -95,6 +114,7 @@ static int packBatchModel(ostBatch* b, const mjModel* m, char* err, int err_sz) 
   s->h = o.timestep > 0 ? o.timestep : m->opt.timestep;
   s->split_tol = o.split_tol;
   s->lookahead = o.margin;
+  b->opt = o;
   return OST_OK;
 }
 
@@ -139,35 +159,34 @@ ostBatch* ost_batchCreate(const mjModel* m, int nworld, const char* device, char
     ost_batchDelete(b);
     return NULL;
   }
-  ostu_batchLayout(&b->L, b->model.s, ost_rowCapacity(m), nworld);
+  int nlane = cuda ? (nworld < OST_CUDA_LANES ? nworld : OST_CUDA_LANES) : b->nthread;
+  ostu_batchLayout(&b->L, b->model.s, ost_rowCapacity(m), nworld, nlane);
   b->qpos0 = (ostNum*)malloc(sizeof(ostNum) * (m->nq > 0 ? m->nq : 1));
-  if (!b->qpos0) {
+  b->adj_work = b->qpos0 ? ostd_workCreate(&b->model, b->L.nrow_max) : NULL;
+  if (!b->qpos0 || !b->adj_work) {
     snprintf(err, err_sz, "ost_batchCreate: out of memory");
     ost_batchDelete(b);
     return NULL;
   }
   memcpy(b->qpos0, m->qpos0, sizeof(ostNum) * m->nq);
-  b->m = mj_copyModel(NULL, m);
-  if (!b->m) {
-    snprintf(err, err_sz, "ost_batchCreate: out of memory");
-    ost_batchDelete(b);
-    return NULL;
-  }
-  int bad;
+  int bad = 0;
   if (cuda) {
 #ifdef OSTRICH_HAVE_CUDA
     bad = ost_batchModel_gpu(&b->model, b->model_block, b->model_bytes, &b->model_dev,
                              &b->model_dev_block, err, err_sz)
-          || ost_batchAlloc_gpu((void**)&b->worlds, b->L.total, err, err_sz);
+          || ost_batchAlloc_gpu((void**)&b->worlds, b->L.total, err, err_sz)
+          || ost_batchAlloc_gpu((void**)&b->lanes, b->L.lane_total, err, err_sz);
 #endif
   } else {
     b->worlds = (char*)aligned_alloc(64, b->L.total);
-    bad = !b->worlds;
+    b->lanes = (char*)aligned_alloc(64, b->L.lane_total);
+    bad = !b->worlds || !b->lanes;
     if (bad) {
       snprintf(err, err_sz, "ost_batchCreate: cannot allocate %zu bytes for %d worlds",
-               b->L.total, nworld);
+               b->L.total + b->L.lane_total, nworld);
     } else {
       memset(b->worlds, 0, b->L.total);
+      memset(b->lanes, 0, b->L.lane_total);
     }
   }
   if (bad || ost_batchSetState(b, NULL, NULL)) {
@@ -181,25 +200,36 @@ ostBatch* ost_batchCreate(const mjModel* m, int nworld, const char* device, char
 }
 
 
+// free host or device memory of the batch
+static void batchFree(const ostBatch* b, void* p) {
+#ifdef OSTRICH_HAVE_CUDA
+  if (b->cuda) {
+    ost_batchFree_gpu(p);
+    return;
+  }
+#endif
+  free(p);
+}
+
+
 void ost_batchDelete(ostBatch* b) {
   if (!b) {
     return;
   }
+  batchFree(b, b->worlds);
+  batchFree(b, b->lanes);
+  batchFree(b, b->rec_start);
+  batchFree(b, b->rec_ctrl);
+  batchFree(b, b->adj_lanes);
 #ifdef OSTRICH_HAVE_CUDA
   if (b->cuda) {
-    ost_batchFree_gpu(b->worlds);
     ost_batchFree_gpu(b->model_dev_block);
-    b->worlds = NULL;
+    ost_batchFree_gpu(b->adj_dev_block);
   }
 #endif
-  free(b->worlds);
+  ostd_workFree(b->adj_work);
   free(b->model_block);
   free(b->qpos0);
-  free(b->rec_start);
-  free(b->rec_ctrl);
-  if (b->m) {
-    mj_deleteModel(b->m);
-  }
   free(b);
 }
 
@@ -210,7 +240,7 @@ int ost_batchWorlds(const ostBatch* b) {
 
 
 size_t ost_batchBytes(const ostBatch* b) {
-  return b ? b->L.total : 0;
+  return b ? b->L.total + b->L.lane_total : 0;
 }
 
 
@@ -228,7 +258,8 @@ int ost_batchMemory(const ostBatch* b, size_t* used, size_t* total) {
     return OST_OK;
   }
 #endif
-  *used = b->L.total + b->model_bytes;
+  *used = b->L.total + b->L.lane_total + b->model_bytes + b->adj_bytes
+          + (b->rec_start ? b->L.total : 0);
   *total = 0;
   return OST_OK;
 }
@@ -346,73 +377,92 @@ static void runThreads(int nt, void* (*fn)(void*), void* chunks, size_t chunk_sz
 }
 
 
-typedef struct cpuChunk_ {        // one thread's share of a rollout
-  const ostBatch* b;
-  int             w0, w1;         // worlds [w0, w1)
-  int             nstep;
-  const ostNum*   ctrl;
-  ostNum*         qpos;
-  ostNum*         qvel;
+typedef struct cpuChunk_ {        // one thread's share: worlds [w0, w1) in lane `lane`
+  const ostBatch*       b;
+  int                   lane;
+  int                   w0, w1;
+  int                   nstep;
+  const ostNum*         ctrl;
+  ostNum*               qpos;
+  ostNum*               qvel;
+  // backward pass only
+  const ostAdjointLayout*   A;
+  const ostAdjointSettings* as;
+  const ostNum*         gq;
+  const ostNum*         gu;
+  ostNum*               gctrl;
+  ostNum*               gq0;
+  ostNum*               gu0;
 } cpuChunk;
 
 
 static void* cpuChunkRun(void* arg) {
   const cpuChunk* c = (const cpuChunk*)arg;
   for (int i = c->w0; i < c->w1; i++) {
-    osti_batchRollout(&c->b->model, &c->b->L, c->b->worlds, i, &c->b->set, c->nstep, c->ctrl,
-                      c->qpos, c->qvel);
+    osti_batchRollout(&c->b->model, &c->b->L, c->b->worlds, c->b->lanes, i, c->lane, &c->b->set,
+                      c->nstep, c->ctrl, c->qpos, c->qvel);
   }
   return NULL;
 }
 
 
-// osti_batchRollout for every world on nthread threads, contiguous chunks
-static int rolloutCpu(ostBatch* b, int nstep, const ostNum* ctrl, ostNum* qpos, ostNum* qvel) {
+// fn on every world: nthread threads, contiguous chunks, thread t in lane t
+static void runChunks(ostBatch* b, void* (*fn)(void*), cpuChunk proto) {
   int nt = b->nthread > 0 ? b->nthread : 1, nw = b->L.nworld;
   cpuChunk chunk[OST_BATCH_MAX_THREADS];
   for (int t = 0; t < nt; t++) {
-    chunk[t] = (cpuChunk){b, (int)((long)nw * t / nt), (int)((long)nw * (t + 1) / nt), nstep,
-                          ctrl, qpos, qvel};
+    chunk[t] = proto;
+    chunk[t].lane = t;
+    chunk[t].w0 = (int)((long)nw * t / nt);
+    chunk[t].w1 = (int)((long)nw * (t + 1) / nt);
   }
-  runThreads(nt, cpuChunkRun, chunk, sizeof(cpuChunk));
-  return OST_OK;
+  runThreads(nt, fn, chunk, sizeof(cpuChunk));
 }
 
 
-// keep what a backward pass replays: the start states and every step's controls of a rollout
-// from a set state (a later rollout continues it: its record is dropped)
+// keep what a backward pass replays: the worlds at the start of a rollout from a set state,
+// and its controls (a later rollout continues it: its record is dropped). ctrl is where the
+// rollout reads its controls (host; the device copy for cuda), NULL: the worlds' own.
 static int recordInputs(ostBatch* b, int nstep, const ostNum* ctrl) {
-  int nw = b->L.nworld, nu = b->nu;
+  size_t nctrl = (size_t)nstep * b->L.nworld * b->nu;
   int fresh = b->fresh;
   b->fresh = 0;
   b->rec_nstep = 0;
-  if (!fresh || b->cuda) {
-    return OST_OK;  // nothing to replay (the cuda batch has no backward pass yet)
+  batchFree(b, b->rec_ctrl);
+  b->rec_ctrl = NULL;
+  if (!fresh) {
+    return OST_OK;
   }
-  free(b->rec_start);
-  free(b->rec_ctrl);
-  b->rec_start = (ostNum*)malloc(sizeof(ostNum) * nw * (b->nq + b->nv));
-  b->rec_ctrl = (ostNum*)malloc(sizeof(ostNum) * ((size_t)nstep * nw * nu + 1));
-  ostNum* cur = (ostNum*)malloc(sizeof(ostNum) * (size_t)nw * (nu + 1));
-  int bad = !b->rec_start || !b->rec_ctrl || !cur;
-  if (!bad) {
-    ostNum* q = (ostNum*)malloc(sizeof(ostNum) * nw * (b->nq + b->nv));
-    bad = !q || field(b, b->L.qpos, sizeof(ostNum) * b->nq, q, 0)
-          || field(b, b->L.qvel, sizeof(ostNum) * b->nv, q + (size_t)nw * b->nq, 0)
-          || (!ctrl && field(b, b->L.ctrl, sizeof(ostNum) * nu, cur, 0));
-    for (int i = 0; !bad && i < nw; i++) {
-      memcpy(b->rec_start + (size_t)i * (b->nq + b->nv), q + (size_t)i * b->nq,
-             sizeof(ostNum) * b->nq);
-      memcpy(b->rec_start + (size_t)i * (b->nq + b->nv) + b->nq, q + (size_t)nw * b->nq
-             + (size_t)i * b->nv, sizeof(ostNum) * b->nv);
+  int bad = 0;
+  if (!b->rec_start) {
+#ifdef OSTRICH_HAVE_CUDA
+    if (b->cuda) {
+      bad = ost_batchAlloc_gpu((void**)&b->rec_start, b->L.total, b->err, sizeof(b->err));
     }
-    free(q);
+#endif
+    if (!b->cuda) {
+      b->rec_start = (char*)aligned_alloc(64, b->L.total);
+      bad = !b->rec_start;
+    }
   }
-  for (int t = 0; !bad && t < nstep; t++) {
-    memcpy(b->rec_ctrl + (size_t)t * nw * nu, ctrl ? ctrl + (size_t)t * nw * nu : cur,
-           sizeof(ostNum) * nw * nu);
+#ifdef OSTRICH_HAVE_CUDA
+  if (b->cuda) {
+    bad = bad || ost_batchCopy_gpu(b->rec_start, b->worlds, b->L.total, b->err, sizeof(b->err))
+          || (ctrl && nctrl && ost_batchUpload_gpu((void**)&b->rec_ctrl, ctrl,
+                                                   nctrl * sizeof(ostNum), b->err,
+                                                   sizeof(b->err)));
   }
-  free(cur);
+#endif
+  if (!b->cuda && !bad) {
+    memcpy(b->rec_start, b->worlds, b->L.total);
+    if (ctrl && nctrl) {
+      b->rec_ctrl = (ostNum*)malloc(nctrl * sizeof(ostNum));
+      bad = !b->rec_ctrl;
+      if (!bad) {
+        memcpy(b->rec_ctrl, ctrl, nctrl * sizeof(ostNum));
+      }
+    }
+  }
   if (bad) {
     return OST_ERR_MEMORY;
   }
@@ -433,11 +483,22 @@ int ost_batchRollout(ostBatch* b, int nstep, const mjtNum* ctrl, mjtNum* qpos, m
   }
 #ifdef OSTRICH_HAVE_CUDA
   if (b->cuda) {
-    return ost_batchRollout_gpu(&b->model_dev, &b->L, b->worlds, &b->set, nstep, ctrl, qpos, qvel,
-                                b->err, sizeof(b->err)) ? OST_ERR_MEMORY : OST_OK;
+    // the controls on the device: the backward record's copy, or a temporary one
+    ostNum* ctrl_dev = b->rec_ctrl;
+    size_t nctrl = (size_t)nstep * b->L.nworld * b->nu;
+    int bad = ctrl && nctrl && !ctrl_dev
+              && ost_batchUpload_gpu((void**)&ctrl_dev, ctrl, nctrl * sizeof(ostNum), b->err,
+                                     sizeof(b->err));
+    bad = bad || ost_batchRollout_gpu(&b->model_dev, &b->L, b->worlds, b->lanes, &b->set, nstep,
+                                      ctrl ? ctrl_dev : NULL, qpos, qvel, b->err, sizeof(b->err));
+    if (ctrl_dev != b->rec_ctrl) {
+      ost_batchFree_gpu(ctrl_dev);
+    }
+    return bad ? OST_ERR_MEMORY : OST_OK;
   }
 #endif
-  return rolloutCpu(b, nstep, ctrl, qpos, qvel);
+  runChunks(b, cpuChunkRun, (cpuChunk){.b = b, .nstep = nstep, .ctrl = ctrl, .qpos = qpos, .qvel = qvel});
+  return OST_OK;
 }
 
 
@@ -446,125 +507,168 @@ int ost_batchStep(ostBatch* b) {
 }
 
 
-//---------------------------------- Backward (CPU) ------------------------------------------------
+//---------------------------------- Backward ------------------------------------------------------
 
-typedef struct backChunk_ {       // one thread's share of a backward pass
-  const ostBatch*       b;
-  const ostGradOptions* go;
-  int                   checkpoint;
-  int                   w0, w1;   // worlds [w0, w1)
-  const ostNum*         gq;       // (T + 1) x nworld x nv, or NULL
-  const ostNum*         gu;
-  ostNum*               gctrl;    // T x nworld x nu, or NULL
-  ostNum*               gq0;      // nworld x nv, or NULL
-  ostNum*               gu0;
-  int*                  failed;   // nworld flags
-} backChunk;
-
-
-// world i's gradients into the step-major outputs (NaN if failed)
-static void scatterWorld(const backChunk* c, int i, const ostNum* gc, const ostNum* q0,
-                         const ostNum* u0, int failed) {
-  const ostBatch* b = c->b;
-  int nw = b->L.nworld, nv = b->nv, nu = b->nu, T = b->rec_nstep;
-  for (int t = 0; c->gctrl && t < T; t++) {
-    for (int a = 0; a < nu; a++) {
-      c->gctrl[((size_t)t * nw + i) * nu + a] = failed ? NAN : gc[t * nu + a];
-    }
-  }
-  for (int j = 0; j < nv; j++) {
-    if (c->gq0) c->gq0[(size_t)i * nv + j] = failed ? NAN : q0[j];
-    if (c->gu0) c->gu0[(size_t)i * nv + j] = failed ? NAN : u0[j];
-  }
-}
-
-
-// replay each world's rollout through a tape (native provider: the batch's bits) and run it
-// backward; the cotangents are gathered from the step-major arrays
+// the four phases of core/ost_batch_adjoint.h for each world of a thread's chunk, in its lane
 static void* backChunkRun(void* arg) {
-  backChunk* c = (backChunk*)arg;
+  const cpuChunk* c = (const cpuChunk*)arg;
   const ostBatch* b = c->b;
-  const mjModel* m = b->m;
-  int nw = b->L.nworld, nq = b->nq, nv = b->nv, nu = b->nu, T = b->rec_nstep;
-  mjData* d = mj_makeData(m);
-  ostTape* tape = ost_tapeCreate(m, c->checkpoint);
-  ostNum* buf = (ostNum*)calloc((size_t)(T + 1) * 2 * nv + (size_t)T * nu + 2 * nv + 1,
-                                sizeof(ostNum));
-  ostNum *gqw = buf, *guw = gqw + (size_t)(T + 1) * nv, *gcw = guw + (size_t)(T + 1) * nv;
-  ostNum *q0 = gcw + (size_t)T * nu, *u0 = q0 + nv;
-  ostOptions o;
-  int ok = d && tape && buf && !ost_readOptions(m, &o, NULL, 0);
-  o.geometry = OST_GEOMETRY_NATIVE;
-  ok = ok && !ost_setOptions(m, d, &o);
+  const ostAdjointLayout* A = c->A;
+  int T = b->rec_nstep, nw = b->L.nworld;
   for (int i = c->w0; i < c->w1; i++) {
-    int good = ok;
-    if (good) {
-      mj_resetData(m, d);
-      memcpy(d->qpos, b->rec_start + (size_t)i * (nq + nv), sizeof(ostNum) * nq);
-      memcpy(d->qvel, b->rec_start + (size_t)i * (nq + nv) + nq, sizeof(ostNum) * nv);
-      ost_tapeClear(tape);
-    }
-    for (int t = 0; good && t < T; t++) {
-      memcpy(d->ctrl, b->rec_ctrl + ((size_t)t * nw + i) * nu, sizeof(ostNum) * nu);
-      good = ost_tapeStep(tape, m, d) == OST_OK;
-    }
-    for (int t = 0; good && t <= T; t++) {
-      for (int j = 0; j < nv; j++) {
-        gqw[t * nv + j] = c->gq ? c->gq[((size_t)t * nw + i) * nv + j] : 0;
-        guw[t * nv + j] = c->gu ? c->gu[((size_t)t * nw + i) * nv + j] : 0;
+    osti_adjointForward(&b->model, &b->L, A, b->rec_start + (size_t)i * b->L.stride,
+                        b->adj_lanes, c->lane, i, &b->set, T, b->rec_ctrl, c->gq, c->gu);
+    for (int k = A->nseg - 1; k >= 0; k--) {
+      osti_adjointReplay(&b->model, &b->L, A, b->adj_lanes, c->lane, i, &b->set, T, k,
+                         b->rec_ctrl);
+      for (int j = 0; j < A->rec_cap; j++) {
+        ostd_adjointRecord(b->adj_work, A, b->adj_lanes, c->lane, i, nw, j, c->as, c->gq, c->gu,
+                           c->gctrl);
       }
     }
-    good = good && ost_tapeBackward(tape, m, c->go, gqw, guw, gcw, q0, u0, NULL) == OST_OK;
-    scatterWorld(c, i, gcw, q0, u0, !good);
-    c->failed[i] = !good;
-  }
-  free(buf);
-  ost_tapeDelete(tape);
-  if (d) {
-    ost_deleteData(d);
+    ostBatchView v;
+    ostu_batchView(&v, &b->L, b->worlds + (size_t)i * b->L.stride);
+    osti_adjointFinish(A, b->adj_lanes, c->lane, i, nw, T, c->gq, c->gu, c->gctrl, c->gq0,
+                       c->gu0, v.status);
   }
   return NULL;
 }
+
+
+// the adjoint lanes' layout for segments of `seg` steps and nlane lanes; (re)allocates them
+static int adjointLanes(ostBatch* b, int seg, int nlane_max, ostAdjointLayout* A) {
+  int T = b->rec_nstep;
+  memset(A, 0, sizeof(*A));
+  A->s = b->L.s;
+  A->nrow_max = b->L.nrow_max;
+  A->seg = seg;
+  A->nseg = (T + seg - 1) / seg;
+  A->rec_cap = OST_RECORDS_PER_STEP * seg + OST_RECORDS_EXTRA;
+  A->world_stride = b->L.stride;
+  A->lane_stride = b->L.lane_stride;
+  A->jac_size = ostd_jacWorkSize(&b->model, b->L.nrow_max);
+  ostu_adjointLayout(A, 1);
+  int nlane = nlane_max < b->L.nworld ? nlane_max : b->L.nworld;
+#ifdef OSTRICH_HAVE_CUDA
+  if (b->cuda) {
+    // at most half the free memory, so that the cotangent arrays fit beside
+    size_t free_bytes = 0, total = 0;
+    ost_batchFree_gpu(b->adj_lanes);
+    b->adj_lanes = NULL;
+    b->adj_bytes = 0;
+    if (ost_batchMemInfo_gpu(&free_bytes, &total)) {
+      return batchFail(b, OST_ERR_MEMORY, "ost_batchBackward: cannot query the GPU's memory");
+    }
+    size_t fit = free_bytes / 2 / A->stride;
+    nlane = (size_t)nlane < fit ? nlane : (int)fit;
+    if (nlane < 1) {
+      return batchFail(b, OST_ERR_MEMORY, "ost_batchBackward: no GPU memory for one lane");
+    }
+  }
+#endif
+  ostu_adjointLayout(A, nlane);
+  if (b->adj_lanes && b->adj_bytes >= A->total) {
+    return OST_OK;
+  }
+  batchFree(b, b->adj_lanes);
+  b->adj_lanes = NULL;
+  b->adj_bytes = 0;
+  int bad = 0;
+#ifdef OSTRICH_HAVE_CUDA
+  if (b->cuda) {
+    bad = ost_batchAlloc_gpu((void**)&b->adj_lanes, A->total, b->err, sizeof(b->err));
+  }
+#endif
+  if (!b->cuda) {
+    b->adj_lanes = (char*)aligned_alloc(64, A->total);
+    bad = !b->adj_lanes;
+    if (!bad) {
+      memset(b->adj_lanes, 0, A->total);
+    }
+  }
+  if (bad) {
+    b->adj_lanes = NULL;
+    return batchFail(b, OST_ERR_MEMORY, "ost_batchBackward: cannot allocate the adjoint lanes");
+  }
+  b->adj_bytes = A->total;
+  return OST_OK;
+}
+
+
+#ifdef OSTRICH_HAVE_CUDA
+// the backward pass on the GPU: the cotangents go to the device, the worlds run in waves of
+// A->nlane, each wave through the four phases (one kernel each), the gradients come back
+static int backwardCuda(ostBatch* b, const ostAdjointLayout* A, const ostAdjointSettings* as,
+                        const ostNum* gq, const ostNum* gu, ostNum* gctrl, ostNum* gq0,
+                        ostNum* gu0) {
+  int T = b->rec_nstep, nw = b->L.nworld, nv = b->nv, nu = b->nu;
+  size_t nseq = (size_t)(T + 1) * nw * nv, nctrl = (size_t)T * nw * nu;
+  ostNum *gq_d = NULL, *gu_d = NULL, *gctrl_d = NULL, *g0_d = NULL;
+  char* e = b->err;
+  int es = sizeof(b->err);
+  int bad = (gq && ost_batchUpload_gpu((void**)&gq_d, gq, nseq * sizeof(ostNum), e, es))
+            || (gu && ost_batchUpload_gpu((void**)&gu_d, gu, nseq * sizeof(ostNum), e, es))
+            || ost_batchAlloc_gpu((void**)&gctrl_d, (nctrl + 1) * sizeof(ostNum), e, es)
+            || ost_batchAlloc_gpu((void**)&g0_d, 2 * (size_t)nw * nv * sizeof(ostNum) + 8, e, es);
+  if (!bad && !b->adj_dev_block) {
+    bad = ost_adjointModel_gpu(&b->model, &b->adj_dev_block, e, es);
+  }
+  for (int w0 = 0; !bad && w0 < nw; w0 += A->nlane) {
+    bad = ost_adjointForward_gpu(&b->model_dev, &b->L, A, b->rec_start, b->adj_lanes, w0,
+                                 &b->set, T, b->rec_ctrl, gq_d, gu_d, e, es);
+    for (int k = A->nseg - 1; !bad && k >= 0; k--) {
+      bad = ost_adjointReplay_gpu(&b->model_dev, &b->L, A, b->adj_lanes, w0, &b->set, T, k,
+                                  b->rec_ctrl, e, es);
+      for (int j = 0; !bad && j < A->rec_cap; j++) {
+        bad = ost_adjointRecord_gpu(b->adj_dev_block, A, b->adj_lanes, w0, nw, j, as, gq_d, gu_d,
+                                    gctrl_d, e, es);
+      }
+    }
+    bad = bad || ost_adjointFinish_gpu(&b->L, A, b->adj_lanes, b->worlds, w0, T, gq_d, gu_d,
+                                       gctrl_d, g0_d, g0_d + (size_t)nw * nv, e, es);
+  }
+  bad = bad || (gctrl && ost_batchDownload_gpu(gctrl, gctrl_d, nctrl * sizeof(ostNum), e, es))
+        || (gq0 && ost_batchDownload_gpu(gq0, g0_d, (size_t)nw * nv * sizeof(ostNum), e, es))
+        || (gu0 && ost_batchDownload_gpu(gu0, g0_d + (size_t)nw * nv,
+                                         (size_t)nw * nv * sizeof(ostNum), e, es));
+  ost_batchFree_gpu(gq_d);
+  ost_batchFree_gpu(gu_d);
+  ost_batchFree_gpu(gctrl_d);
+  ost_batchFree_gpu(g0_d);
+  return bad ? OST_ERR_MEMORY : OST_OK;
+}
+#endif
 
 
 int ost_batchBackward(ostBatch* b, const ostGradOptions* go, int checkpoint, const mjtNum* gq,
                       const mjtNum* gu, mjtNum* gctrl, mjtNum* gq0, mjtNum* gu0) {
   if (!b) return -1;
   if (checkpoint < 0) return -3;
-  if (b->cuda) {
-    return batchFail(b, OST_ERR_INPUT, "ost_batchBackward: the cuda batch has no backward pass "
-                     "yet (use a cpu batch)");
-  }
+  b->err[0] = 0;
   if (b->rec_nstep == 0) {
     return batchFail(b, OST_ERR_INPUT, "ost_batchBackward: no rollout recorded (call "
                      "ost_batchRollout right after ost_batchSetState)");
   }
-  ostGradOptions def;
-  if (!go) {
-    ost_defaultGradOptions(&def);
-    go = &def;
+  if (go && go->params) {
+    return batchFail(b, OST_ERR_INPUT, "ost_batchBackward: parameter gradients are not "
+                     "available for batches (use ost_tapeBackward)");
   }
-  int nt = b->nthread > 0 ? b->nthread : 1, nw = b->L.nworld;
-  int* failed = (int*)calloc(nw, sizeof(int));
-  if (!failed) {
-    return batchFail(b, OST_ERR_MEMORY, "ost_batchBackward: out of memory");
+  int T = b->rec_nstep, seg = checkpoint > 0 && checkpoint < T ? checkpoint : T, status;
+  ostAdjointLayout A;
+  if ((status = adjointLanes(b, seg, b->cuda ? OST_CUDA_ADJOINT_LANES : b->nthread, &A))) {
+    return status;
   }
-  backChunk chunk[OST_BATCH_MAX_THREADS];
-  for (int t = 0; t < nt; t++) {
-    chunk[t] = (backChunk){b, go, checkpoint, (int)((long)nw * t / nt),
-                           (int)((long)nw * (t + 1) / nt), gq, gu, gctrl, gq0, gu0, failed};
+  ostAdjointSettings as = {b->set.h, b->opt.margin, b->opt.regularization,
+                           b->opt.friction_creep, b->opt.fb_eps, go ? go->truncate : 0, 0};
+#ifdef OSTRICH_HAVE_CUDA
+  if (b->cuda) {
+    return backwardCuda(b, &A, &as, gq, gu, gctrl, gq0, gu0);
   }
-  runThreads(nt, backChunkRun, chunk, sizeof(backChunk));
-
-  // failed worlds get OST_NAN in their outcome bits
-  int* status = (int*)malloc(sizeof(int) * nw);
-  if (status && !field(b, b->L.status, sizeof(int), status, 0)) {
-    for (int i = 0; i < nw; i++) {
-      status[i] |= failed[i] ? OST_NAN : 0;
-    }
-    field(b, b->L.status, sizeof(int), status, 1);
+#endif
+  if (gctrl) {
+    memset(gctrl, 0, sizeof(ostNum) * (size_t)T * b->L.nworld * b->nu);
   }
-  free(status);
-  free(failed);
+  cpuChunk proto = {b, 0, 0, 0, T, NULL, NULL, NULL, &A, &as, gq, gu, gctrl, gq0, gu0};
+  runChunks(b, backChunkRun, proto);
   return OST_OK;
 }

@@ -266,6 +266,98 @@ START_TEST(test_batchBackward) {
 END_TEST
 
 
+// the batch's backward pass (core/ost_batch_adjoint.h: replay from segment checkpoints) gives
+// the gradients of the plugin's tape (ost_tapeStep with the native provider, then
+// ost_tapeBackward) for every world: three robots climbing the box (splits, contact changes),
+// 30 steps, cotangents at every step; with no checkpoints and with segments of 4 and 7 steps
+START_TEST(test_batchBackwardEqualsTape) {
+  ost_fixtureSetup();
+  mjModel* m = ost_fixtureLoadModel("robot_box.xml");
+  int nw = 3, T = 30, nq = m->nq, nv = m->nv, nu = m->nu;
+  mjtNum* q0 = calloc(nw * nq, sizeof(mjtNum));
+  mjtNum* ctrl = calloc(T * nw * nu, sizeof(mjtNum));
+  mjtNum *gq = calloc((T + 1) * nw * nv, 8), *gu = calloc((T + 1) * nw * nv, 8);
+  mjtNum *gctrl = calloc(T * nw * nu, 8), *gq0 = calloc(nw * nv, 8), *gu0 = calloc(nw * nv, 8);
+  for (int i = 0; i < nw; i++) {
+    memcpy(q0 + i * nq, m->qpos0, nq * sizeof(mjtNum));
+    q0[i * nq] = -0.2 - 0.15 * i;
+    q0[i * nq + 3] = cos(0.04 * i);
+    q0[i * nq + 6] = sin(0.04 * i);
+    for (int t = 0; t < T; t++) {
+      for (int a = 0; a < nu; a++) ctrl[(t * nw + i) * nu + a] = 3 + 0.4 * sin(0.5 * t + a + i);
+    }
+    for (int t = 0; t <= T; t++) {
+      for (int j = 0; j < nv; j++) {
+        gq[(t * nw + i) * nv + j] = sin(1.3 * t + j + 2 * i);
+        gu[(t * nw + i) * nv + j] = 0.1 * cos(0.7 * t + j - i);
+      }
+    }
+  }
+
+  // the oracle: each world through a tape
+  mjtNum *tq = calloc((T + 1) * nv, 8), *tu = calloc((T + 1) * nv, 8);
+  mjtNum *tc = calloc(nw * T * nu, 8), *tq0 = calloc(nw * nv, 8), *tu0 = calloc(nw * nv, 8);
+  mjData* d = mj_makeData(m);
+  ostOptions o;
+  ck_assert_int_eq(ost_readOptions(m, &o, NULL, 0), OST_OK);
+  o.geometry = OST_GEOMETRY_NATIVE;
+  ck_assert_int_eq(ost_setOptions(m, d, &o), OST_OK);
+  ostTape* tape = ost_tapeCreate(m, 0);
+  for (int i = 0; i < nw; i++) {
+    mj_resetData(m, d);
+    memcpy(d->qpos, q0 + i * nq, nq * sizeof(mjtNum));
+    ost_tapeClear(tape);
+    for (int t = 0; t < T; t++) {
+      memcpy(d->ctrl, ctrl + (t * nw + i) * nu, nu * sizeof(mjtNum));
+      ck_assert_int_eq(ost_tapeStep(tape, m, d), OST_OK);
+    }
+    for (int t = 0; t <= T; t++) {
+      memcpy(tq + t * nv, gq + (t * nw + i) * nv, nv * sizeof(mjtNum));
+      memcpy(tu + t * nv, gu + (t * nw + i) * nv, nv * sizeof(mjtNum));
+    }
+    ck_assert_int_eq(ost_tapeBackward(tape, m, NULL, tq, tu, tc + i * T * nu, tq0 + i * nv,
+                                      tu0 + i * nv, NULL), OST_OK);
+    printf("tape world %d: x %.3f m after %d steps\n", i, d->qpos[0], T);
+    ck_assert_double_gt(d->qpos[0], 0.45);  // on the box's edge or over it
+  }
+
+  char err[1000];
+  ostBatch* b = ost_batchCreate(m, nw, "cpu:2", err, sizeof(err));
+  ck_assert_msg(b != NULL, "%s", err);
+  const int checkpoints[3] = {0, 4, 7};
+  for (int c = 0; c < 3; c++) {
+    ck_assert_int_eq(ost_batchSetState(b, q0, NULL), OST_OK);
+    ck_assert_int_eq(ost_batchRollout(b, T, ctrl, NULL, NULL), OST_OK);
+    ck_assert_int_eq(ost_batchBackward(b, NULL, checkpoints[c], gq, gu, gctrl, gq0, gu0), OST_OK);
+    double worst = 0, scale = 0;
+    for (int i = 0; i < nw; i++) {
+      for (int t = 0; t < T; t++) {
+        for (int a = 0; a < nu; a++) {
+          double x = gctrl[(t * nw + i) * nu + a], y = tc[(i * T + t) * nu + a];
+          worst = fmax(worst, fabs(x - y));
+          scale = fmax(scale, fabs(y));
+        }
+      }
+      worst = fmax(worst, fmax(maxDiff(gq0 + i * nv, tq0 + i * nv, nv),
+                               maxDiff(gu0 + i * nv, tu0 + i * nv, nv)));
+    }
+    printf("batch backward (checkpoint %d) vs tape: max |diff| %.3g (largest gradient %.3g)\n",
+           checkpoints[c], worst, scale);
+    ck_assert_double_le(worst, 1e-9 * scale);
+  }
+  int status[3];
+  ck_assert_int_eq(ost_batchStatus(b, status), OST_OK);
+  for (int i = 0; i < nw; i++) ck_assert_int_eq(status[i] & (OST_OVERFLOW | OST_NAN | OST_CHOL_FAIL), 0);
+  ost_batchDelete(b);
+  ost_tapeDelete(tape);
+  ost_deleteData(d);
+  free(q0); free(ctrl); free(gq); free(gu); free(gctrl); free(gq0); free(gu0);
+  free(tq); free(tu); free(tc); free(tq0); free(tu0);
+  mj_deleteModel(m);
+}
+END_TEST
+
+
 // refused: bad arguments, unknown devices, cuda without a CUDA build, models native cannot do
 START_TEST(test_batchErrors) {
   ost_fixtureSetup();
@@ -315,6 +407,7 @@ static Suite* suite(void) {
   tcase_add_test(tc, test_batchEqualsStep);
   tcase_add_test(tc, test_batchMixed);
   tcase_add_test(tc, test_batchBackward);
+  tcase_add_test(tc, test_batchBackwardEqualsTape);
   tcase_add_test(tc, test_batchErrors);
   suite_add_tcase(s, tc);
   return s;

@@ -1,0 +1,116 @@
+// ost_batch_adjoint.h: the backward pass of a batch rollout, world by world, in the double
+// build (DESIGN.md section 2; paper section III-D). A world's pass runs in an adjoint lane
+// (core/ost_adjoint.h's OST_ADJOINT_LANE_ARRAYS) in four phases, which the CPU batch calls in
+// order for each world and the CUDA batch launches as kernels over a wave of worlds:
+//   1 osti_adjointForward  replay the rollout from the world's start, keeping a checkpoint of
+//                          the world at the start of every segment of A->seg steps
+//   2 osti_adjointReplay   replay segment k from its checkpoint, recording each committed
+//                          substep (state, controls, rows, multipliers)
+//   3 ostx_adjointRecord   (ost_adjoint_jacobian.h, dual build) the implicit function theorem
+//                          on record j from the end of the segment
+//   4 osti_adjointFinish   the cotangents of the start state; NaN for a failed world
+// Phase 2 and 3 run for k = nseg - 1 .. 0. The replay takes the forward pass's exact steps (same
+// warm start, splits and bits), so the gradient is that of the rollout the user saw, with
+// memory per lane of nseg world slices plus one segment's records (segment checkpointing).
+// Cotangent sequences are step-major, world-minor: gq, gu ((T + 1) x nworld x nv, the cotangent
+// of the state after step t - 1; NULL: zero), gctrl (T x nworld x nu, zeroed by the caller).
+// Invariant: world i's pass reads the model, its start slice and the sequences, and writes only
+// its lane and its own entries of the outputs.
+#ifndef OSTRICH_CORE_OST_BATCH_ADJOINT_H_
+#define OSTRICH_CORE_OST_BATCH_ADJOINT_H_
+
+#include <math.h>
+
+#include "ost_adjoint.h"
+#include "ost_batch.h"
+#include "ost_hd.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+// phase 1: replay world i's T steps from its start slice in lane l, checkpointing each segment's
+// start; the running cotangent starts at time T
+OST_HD void osti_adjointForward(const ostModel* m, const ostBatchLayout* L,
+                                const ostAdjointLayout* A, const char* start, char* lanes, int l,
+                                int i, const ostStepSettings* set, int T, const ostNum* ctrl_seq,
+                                const double* gq, const double* gu) {
+  ostAdjointLane al;
+  ostu_adjointLane(&al, A, lanes, l);
+  size_t ws = A->world_stride;
+  for (size_t b = 0; b < ws; b++) al.ckpt[b] = start[b];
+  for (int k = 0; k < A->nseg; k++) {
+    char* ck = al.ckpt + k * ws;
+    for (size_t b = 0; b < ws; b++) al.cur[b] = ck[b];
+    int t1 = (k + 1) * A->seg < T ? (k + 1) * A->seg : T;
+    osti_worldRollout(m, L, al.cur, al.work, i, set, k * A->seg, t1, ctrl_seq, NULL, NULL, NULL);
+    if (k + 1 < A->nseg) {
+      for (size_t b = 0; b < ws; b++) ck[ws + b] = al.cur[b];
+    }
+  }
+  ostBatchView v;
+  ostu_batchView(&v, L, al.cur);
+  al.info[OST_ADJ_NREC] = 0;
+  al.info[OST_ADJ_STEP] = T;
+  al.info[OST_ADJ_FAILED] = (*v.status & OST_STEP_FAILED) ? OST_STEP_NAN : 0;
+  for (int j = 0; j < 2 * A->s.nv; j++) al.g[j] = 0;
+  osti_adjointInject(A, &al, i, L->nworld, T, gq, gu);
+}
+
+
+// phase 2: replay segment k of world i from its checkpoint, recording its committed substeps
+// (more than A->rec_cap fails the world with OST_STEP_OVERFLOW)
+OST_HD void osti_adjointReplay(const ostModel* m, const ostBatchLayout* L,
+                               const ostAdjointLayout* A, char* lanes, int l, int i,
+                               const ostStepSettings* set, int T, int k, const ostNum* ctrl_seq) {
+  ostAdjointLane al;
+  ostu_adjointLane(&al, A, lanes, l);
+  al.info[OST_ADJ_NREC] = 0;
+  if (al.info[OST_ADJ_FAILED]) {
+    return;
+  }
+  size_t ws = A->world_stride;
+  for (size_t b = 0; b < ws; b++) al.cur[b] = al.ckpt[k * ws + b];
+  ostRecordSink sink = {al.rec, A->s, A->nrow_max, A->rec_cap, 0, 0};
+  int t1 = (k + 1) * A->seg < T ? (k + 1) * A->seg : T;
+  osti_worldRollout(m, L, al.cur, al.work, i, set, k * A->seg, t1, ctrl_seq, NULL, NULL, &sink);
+  if (sink.n > A->rec_cap) {
+    al.info[OST_ADJ_FAILED] = OST_STEP_OVERFLOW;
+    return;
+  }
+  al.info[OST_ADJ_NREC] = sink.n;
+}
+
+
+// phase 4: the cotangents of world i's start state into gq0, gu0 (nworld x nv each, or NULL);
+// a failed world gets NaN there and in all its gctrl entries, and its failure's bit in *status
+// (the world's outcome bits, or NULL): OST_STEP_NAN, or OST_STEP_OVERFLOW if a capacity was
+// exceeded
+OST_HD void osti_adjointFinish(const ostAdjointLayout* A, char* lanes, int l, int i, int nworld,
+                               int T, const double* gq, const double* gu, double* gctrl,
+                               double* gq0, double* gu0, int* status) {
+  ostAdjointLane al;
+  ostu_adjointLane(&al, A, lanes, l);
+  int nv = A->s.nv, nu = A->s.nu;
+  while (al.info[OST_ADJ_STEP] > 0) {
+    al.info[OST_ADJ_STEP]--;
+    osti_adjointInject(A, &al, i, nworld, al.info[OST_ADJ_STEP], gq, gu);
+  }
+  int failed = al.info[OST_ADJ_FAILED];
+  if (failed && status) {
+    *status |= failed;
+  }
+  for (int j = 0; j < nv; j++) {
+    if (gq0) gq0[(size_t)i * nv + j] = failed ? NAN : al.g[j];
+    if (gu0) gu0[(size_t)i * nv + j] = failed ? NAN : al.g[nv + j];
+  }
+  for (int t = 0; failed && gctrl && t < T; t++) {
+    for (int a = 0; a < nu; a++) gctrl[((size_t)t * nworld + i) * nu + a] = NAN;
+  }
+}
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif  // OSTRICH_CORE_OST_BATCH_ADJOINT_H_
