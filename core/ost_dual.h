@@ -254,15 +254,17 @@ inline void ostx_copyArray(T* dst, const U* src, size_t n) {
 }
 
 
-// bytes of the block of the dual model of sizes s (ostu_modelSize with this TU's ostNum)
-inline size_t ostx_dualModelSize(ostSizes s) {
+// bytes of the block of the dual model of sizes s (ostu_modelSize with this TU's ostNum). Static,
+// as everything here that names ostModel: translation units with different ostDual<N> (the CPU's
+// and the GPU's) must not share one definition at link time.
+static inline size_t ostx_dualModelSize(ostSizes s) {
   return ostu_modelSize(s);
 }
 
 
 // the dual model dst of the double model src, its arrays in block (ostx_dualModelSize(src->s)
 // bytes, 64-byte aligned): every value copied, every derivative zero
-inline void ostx_dualModel(ostModel* dst, void* block, const ostModelDouble* src) {
+static inline void ostx_dualModel(ostModel* dst, void* block, const ostModelDouble* src) {
   ostSizes s = src->s;
   dst->s = s;
   for (int i = 0; i < 3; i++) {

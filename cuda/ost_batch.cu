@@ -1,41 +1,72 @@
-// ost_batch.cu: CUDA kernels and host launchers of the batch (declared in ost_batch_gpu.h).
-// Kernels are thin wrappers of core's per-world functions: a thread per world runs
-// osti_batchRollout, the CPU batch's oracle, on the same layout (core/ost_batch.h). Launchers
-// check every CUDA call (OST_CUDA_CHECK) and return its message instead of exiting.
-// Invariant: thread i reads the model and writes only world i's slice and its output rows;
-// nothing is reduced across worlds, so results do not depend on scheduling.
+// ost_batch.cu: CUDA kernels and host launchers of the batch in the double build (declared in
+// ost_batch_gpu.h; the dual-number kernel of the backward pass is ost_batch_adjoint.cu).
+// Kernels are thin wrappers of core's per-world functions, the CPU batch's oracle, on the same
+// layout: GPU thread l is lane l, stepping worlds l, l + nlane, .. (core/ost_batch.h), or in the
+// backward pass world w0 + l of a wave (core/ost_batch_adjoint.h). Launchers check every CUDA
+// call (OST_CUDA_CHECK) and return its message instead of exiting.
+// Invariant: a thread reads the model and writes only its worlds' slices, its lane and its
+// worlds' output rows; nothing is reduced across worlds, so results do not depend on scheduling.
 #include <stdio.h>
 
 #include <cuda_runtime.h>
 
+#include "ost_batch_adjoint.h"
 #include "ost_batch_gpu.h"
 
-// run a CUDA call; on failure write file, line and message into err and return 1
-#define OST_CUDA_CHECK(expr)                                                              \
-  do {                                                                                    \
-    cudaError_t e_ = (expr);                                                              \
-    if (e_ != cudaSuccess) {                                                              \
-      if (err) snprintf(err, err_sz, "%s:%d: %s: %s", __FILE__, __LINE__, #expr,           \
-                        cudaGetErrorString(e_));                                          \
-      return 1;                                                                           \
-    }                                                                                     \
-  } while (0)
-
-// threads per block of the world kernels
-#define OST_BLOCK 64
-
-// per-thread stack of the rollout kernel (collision and Newton locals; measured by ptxas)
-#define OST_STACK_BYTES (32 * 1024)
+// blocks of OST_BLOCK threads for n threads
+static int blocks(int n) {
+  return (n + OST_BLOCK - 1) / OST_BLOCK;
+}
 
 
-__global__ void ost_batchRollout_kernel(ostModel m, ostBatchLayout L, char* worlds,
+__global__ void ost_batchRollout_kernel(ostModel m, ostBatchLayout L, char* worlds, char* lanes,
                                         ostStepSettings set, int nstep, const ostNum* ctrl,
                                         ostNum* qpos, ostNum* qvel) {
-  int i = blockIdx.x * blockDim.x + threadIdx.x;
-  if (i >= L.nworld) {
+  int l = blockIdx.x * blockDim.x + threadIdx.x;
+  if (l >= L.nlane) {
     return;  // guard first
   }
-  osti_batchRollout(&m, &L, worlds, i, &set, nstep, ctrl, qpos, qvel);
+  for (int i = l; i < L.nworld; i += L.nlane) {
+    osti_batchRollout(&m, &L, worlds, lanes, i, l, &set, nstep, ctrl, qpos, qvel);
+  }
+}
+
+
+__global__ void ost_adjointForward_kernel(ostModel m, ostBatchLayout L, ostAdjointLayout A,
+                                          const char* start, char* lanes, int w0,
+                                          ostStepSettings set, int T, const ostNum* ctrl,
+                                          const double* gq, const double* gu) {
+  int l = blockIdx.x * blockDim.x + threadIdx.x, i = w0 + l;
+  if (l >= A.nlane || i >= L.nworld) {
+    return;
+  }
+  osti_adjointForward(&m, &L, &A, start + (size_t)i * L.stride, lanes, l, i, &set, T, ctrl, gq,
+                      gu);
+}
+
+
+__global__ void ost_adjointReplay_kernel(ostModel m, ostBatchLayout L, ostAdjointLayout A,
+                                         char* lanes, int w0, ostStepSettings set, int T, int k,
+                                         const ostNum* ctrl) {
+  int l = blockIdx.x * blockDim.x + threadIdx.x, i = w0 + l;
+  if (l >= A.nlane || i >= L.nworld) {
+    return;
+  }
+  osti_adjointReplay(&m, &L, &A, lanes, l, i, &set, T, k, ctrl);
+}
+
+
+__global__ void ost_adjointFinish_kernel(ostBatchLayout L, ostAdjointLayout A, char* lanes,
+                                         char* worlds, int w0, int T, const double* gq,
+                                         const double* gu, double* gctrl, double* gq0,
+                                         double* gu0) {
+  int l = blockIdx.x * blockDim.x + threadIdx.x, i = w0 + l;
+  if (l >= A.nlane || i >= L.nworld) {
+    return;
+  }
+  ostBatchView v;
+  ostu_batchView(&v, &L, worlds + (size_t)i * L.stride);
+  osti_adjointFinish(&A, lanes, l, i, L.nworld, T, gq, gu, gctrl, gq0, gu0, v.status);
 }
 
 
@@ -59,6 +90,7 @@ __global__ void ost_batchField_kernel(ostBatchLayout L, char* worlds, size_t off
 
 extern "C" int ost_batchModel_gpu(const ostModel* m, const void* block, size_t bytes,
                                   ostModel* m_dev, void** block_dev, char* err, int err_sz) {
+  OST_CUDA_CHECK(cudaDeviceSetLimit(cudaLimitStackSize, OST_STACK_BYTES));  // once, for all kernels
   OST_CUDA_CHECK(cudaMalloc(block_dev, bytes));
   OST_CUDA_CHECK(cudaMemcpy(*block_dev, block, bytes, cudaMemcpyHostToDevice));
   *m_dev = *m;
@@ -91,7 +123,7 @@ extern "C" int ost_batchField_gpu(const ostBatchLayout* L, char* worlds_dev, siz
     bad = cudaMemcpy(stage, dense, bytes, cudaMemcpyHostToDevice) != cudaSuccess;
   }
   if (!bad) {
-    ost_batchField_kernel<<<(L->nworld + OST_BLOCK - 1) / OST_BLOCK, OST_BLOCK>>>(
+    ost_batchField_kernel<<<blocks(L->nworld), OST_BLOCK>>>(
         *L, worlds_dev, offset, n, stage, to_device);
     bad = cudaGetLastError() != cudaSuccess || cudaDeviceSynchronize() != cudaSuccess;
   }
@@ -105,37 +137,46 @@ extern "C" int ost_batchField_gpu(const ostBatchLayout* L, char* worlds_dev, siz
 }
 
 
-// a device copy of a host array of n numbers (NULL stays NULL)
-static int upload(ostNum** dev, const ostNum* host, size_t n, char* err, int err_sz) {
+extern "C" int ost_batchUpload_gpu(void** dev, const void* host, size_t bytes, char* err,
+                                   int err_sz) {
   *dev = NULL;
-  if (!host || n == 0) {
-    return 0;
-  }
-  OST_CUDA_CHECK(cudaMalloc(dev, n * sizeof(ostNum)));
-  OST_CUDA_CHECK(cudaMemcpy(*dev, host, n * sizeof(ostNum), cudaMemcpyHostToDevice));
+  OST_CUDA_CHECK(cudaMalloc(dev, bytes));
+  OST_CUDA_CHECK(cudaMemcpy(*dev, host, bytes, cudaMemcpyHostToDevice));
+  return 0;
+}
+
+
+extern "C" int ost_batchDownload_gpu(void* host, const void* dev, size_t bytes, char* err,
+                                     int err_sz) {
+  OST_CUDA_CHECK(cudaMemcpy(host, dev, bytes, cudaMemcpyDeviceToHost));
+  return 0;
+}
+
+
+extern "C" int ost_batchCopy_gpu(void* dst_dev, const void* src_dev, size_t bytes, char* err,
+                                 int err_sz) {
+  OST_CUDA_CHECK(cudaMemcpy(dst_dev, src_dev, bytes, cudaMemcpyDeviceToDevice));
   return 0;
 }
 
 
 extern "C" int ost_batchRollout_gpu(const ostModel* m_dev, const ostBatchLayout* L,
-                                    char* worlds_dev, const ostStepSettings* set, int nstep,
-                                    const ostNum* ctrl, ostNum* qpos, ostNum* qvel, char* err,
-                                    int err_sz) {
+                                    char* worlds_dev, char* lanes_dev, const ostStepSettings* set,
+                                    int nstep, const ostNum* ctrl_dev, ostNum* qpos, ostNum* qvel,
+                                    char* err, int err_sz) {
   size_t nw = (size_t)L->nworld, T = (size_t)nstep;
-  ostNum *ctrl_dev = NULL, *qpos_dev = NULL, *qvel_dev = NULL;
-  int bad = upload(&ctrl_dev, ctrl, T * nw * L->s.nu, err, err_sz);
-  if (!bad && qpos) {
+  ostNum *qpos_dev = NULL, *qvel_dev = NULL;
+  int bad = 0;
+  if (qpos) {
     bad = cudaMalloc(&qpos_dev, T * nw * L->s.nq * sizeof(ostNum)) != cudaSuccess;
   }
   if (!bad && qvel) {
     bad = cudaMalloc(&qvel_dev, T * nw * L->s.nv * sizeof(ostNum)) != cudaSuccess;
   }
   if (!bad) {
-    bad = cudaDeviceSetLimit(cudaLimitStackSize, OST_STACK_BYTES) != cudaSuccess;
-  }
-  if (!bad) {
-    ost_batchRollout_kernel<<<(L->nworld + OST_BLOCK - 1) / OST_BLOCK, OST_BLOCK>>>(
-        *m_dev, *L, worlds_dev, *set, nstep, ctrl_dev, qpos_dev, qvel_dev);
+    ost_batchRollout_kernel<<<blocks(L->nlane), OST_BLOCK>>>(*m_dev, *L, worlds_dev, lanes_dev,
+                                                             *set, nstep, ctrl_dev, qpos_dev,
+                                                             qvel_dev);
     bad = cudaGetLastError() != cudaSuccess || cudaDeviceSynchronize() != cudaSuccess;
   }
   if (!bad && qpos) {
@@ -147,10 +188,47 @@ extern "C" int ost_batchRollout_gpu(const ostModel* m_dev, const ostBatchLayout*
           != cudaSuccess;
   }
   cudaError_t e = cudaGetLastError();
-  cudaFree(ctrl_dev);
   cudaFree(qpos_dev);
   cudaFree(qvel_dev);
   OST_CUDA_CHECK(bad ? (e != cudaSuccess ? e : cudaErrorUnknown) : cudaSuccess);
+  return 0;
+}
+
+
+extern "C" int ost_adjointForward_gpu(const ostModel* m_dev, const ostBatchLayout* L,
+                                      const ostAdjointLayout* A, const char* start_dev,
+                                      char* lanes_dev, int w0, const ostStepSettings* set, int T,
+                                      const ostNum* ctrl_dev, const double* gq_dev,
+                                      const double* gu_dev, char* err, int err_sz) {
+  ost_adjointForward_kernel<<<blocks(A->nlane), OST_BLOCK>>>(*m_dev, *L, *A, start_dev, lanes_dev,
+                                                             w0, *set, T, ctrl_dev, gq_dev,
+                                                             gu_dev);
+  OST_CUDA_CHECK(cudaGetLastError());
+  return 0;
+}
+
+
+extern "C" int ost_adjointReplay_gpu(const ostModel* m_dev, const ostBatchLayout* L,
+                                     const ostAdjointLayout* A, char* lanes_dev, int w0,
+                                     const ostStepSettings* set, int T, int k,
+                                     const ostNum* ctrl_dev, char* err, int err_sz) {
+  ost_adjointReplay_kernel<<<blocks(A->nlane), OST_BLOCK>>>(*m_dev, *L, *A, lanes_dev, w0, *set,
+                                                            T, k, ctrl_dev);
+  OST_CUDA_CHECK(cudaGetLastError());
+  return 0;
+}
+
+
+extern "C" int ost_adjointFinish_gpu(const ostBatchLayout* L, const ostAdjointLayout* A,
+                                     char* lanes_dev, char* worlds_dev, int w0, int T,
+                                     const double* gq_dev, const double* gu_dev,
+                                     double* gctrl_dev, double* gq0_dev, double* gu0_dev,
+                                     char* err, int err_sz) {
+  ost_adjointFinish_kernel<<<blocks(A->nlane), OST_BLOCK>>>(*L, *A, lanes_dev, worlds_dev, w0, T,
+                                                            gq_dev, gu_dev, gctrl_dev, gq0_dev,
+                                                            gu0_dev);
+  OST_CUDA_CHECK(cudaGetLastError());
+  OST_CUDA_CHECK(cudaDeviceSynchronize());
   return 0;
 }
 

@@ -3,11 +3,12 @@
 // over the 6 s horizon). For each world count and device: every world starts from its own
 // random start (synth's distribution) and follows synth's initial wheel command (1.5 rad/s,
 // ramping to 0 over the last second); one untimed rollout warms up, then --repeat timed
-// rollouts of the whole horizon. Reports the median rollout time, world-rollouts and
-// world-steps per second, on the CPU also one optimization iteration (rollout + backward pass,
-// ost_batchBackward; the cuda batch has no backward pass yet) and world-iterations per second,
-// the device's memory in use, and each device's forward ratio to the CPU batch with all cores
-// in the same run.
+// rollouts of the whole horizon, and --repeat timed optimization iterations (the rollout and
+// its backward pass, ost_batchBackward with segment checkpoints every --checkpoint steps, for
+// a loss of every world's final position). Reports the median rollout time, world-rollouts and
+// world-steps per second, the median iteration time and world-iterations per second, the
+// device's memory in use after the backward pass, and each device's ratios to the CPU batch
+// with all cores in the same run.
 // Invariant: every figure printed was measured in this run.
 #define _POSIX_C_SOURCE 200809L
 
@@ -33,6 +34,7 @@ typedef struct benchArgs_ {       // arguments of `ostrich bench scale`
   long        repeat;             // timed rollouts per point
   long        steps;              // steps per rollout
   long        cpu_max;            // largest world count run on the CPU
+  long        checkpoint;         // backward segment length (steps)
   int         help;
 } benchArgs;
 
@@ -49,6 +51,8 @@ static const cliOption kBenchOptions[] = {
    "timed rollouts per point, median reported (default 3)"},
   {"--cpu-max", CLI_ARG_COUNT, offsetof(benchArgs, cpu_max), "N",
    "largest world count run on the CPU (default 8192)"},
+  {"--checkpoint", CLI_ARG_COUNT, offsetof(benchArgs, checkpoint), "S",
+   "backward pass: checkpoint every S steps (default 10)"},
   {"--csv", CLI_ARG_STRING, offsetof(benchArgs, csv), "FILE.csv", "write the table as CSV"},
   {"--plot", CLI_ARG_STRING, offsetof(benchArgs, plot), "FILE.png",
    "plot world-steps/s against worlds (gnuplot)"},
@@ -62,7 +66,7 @@ typedef struct benchRow_ {        // one measured point
   double rollout_s;               // median rollout time
   double world_rollouts_per_s;
   double world_steps_per_s;
-  double iter_s;                  // one optimization iteration: rollout + backward (cpu; NaN: none)
+  double iter_s;                  // median optimization iteration: rollout + backward
   double mem_gb;                  // device memory in use (cuda) or batch bytes (cpu), GB
   int    failed;                  // worlds with a failure bit at the end
 } benchRow;
@@ -131,26 +135,36 @@ static int benchPoint(const mjModel* m, const char* device, int nworld, const be
     }
   }
 
-  // one optimization iteration (cpu): the rollout and its backward pass for a loss of the
-  // final state (cotangent 1 on each world's final x)
+  // optimization iterations: the rollout and its backward pass for a loss of the final state
+  // (cotangent 1 on each world's final x)
   row->iter_s = NAN;
-  if (!bad && strcmp(device, "cuda")) {
-    size_t n = ((size_t)T + 1) * nworld * m->nv;
-    mjtNum* gq = (mjtNum*)calloc(n, sizeof(mjtNum));
-    mjtNum* gctrl = (mjtNum*)malloc(sizeof(mjtNum) * (size_t)T * nworld * m->nu);
-    for (int w = 0; gq && w < nworld; w++) {
-      gq[((size_t)T * nworld + w) * m->nv] = 1;
-    }
+  size_t n = ((size_t)T + 1) * nworld * m->nv;
+  mjtNum* gq = bad ? NULL : (mjtNum*)calloc(n, sizeof(mjtNum));
+  mjtNum* gctrl = bad ? NULL : (mjtNum*)malloc(sizeof(mjtNum) * (size_t)T * nworld * m->nu);
+  if (!bad && (!gq || !gctrl)) {
+    cli_error("bench scale: %s, %d worlds: out of memory", device, nworld);
+    bad = 1;
+  }
+  for (int w = 0; !bad && w < nworld; w++) {
+    gq[((size_t)T * nworld + w) * m->nv] = 1;
+  }
+  double* iters = (double*)malloc(sizeof(double) * a->repeat);
+  for (int r = 0; r < a->repeat && !bad; r++) {
     double t0 = cli_now();
-    bad = !gq || !gctrl || ost_batchSetState(b, q0, NULL) || ost_batchRollout(b, T, ctrl, NULL, NULL)
-          || ost_batchBackward(b, NULL, 0, gq, NULL, gctrl, NULL, NULL);
-    row->iter_s = cli_now() - t0;
+    bad = ost_batchSetState(b, q0, NULL) || ost_batchRollout(b, T, ctrl, NULL, NULL)
+          || ost_batchBackward(b, NULL, (int)a->checkpoint, gq, NULL, gctrl, NULL, NULL);
+    iters[r] = cli_now() - t0;
     if (bad) {
       cli_error("bench scale: %s, %d worlds, backward: %s", device, nworld, ost_batchError(b));
     }
-    free(gq);
-    free(gctrl);
   }
+  if (!bad) {
+    qsort(iters, a->repeat, sizeof(double), compareDouble);
+    row->iter_s = iters[a->repeat / 2];
+  }
+  free(iters);
+  free(gq);
+  free(gctrl);
   if (!bad) {
     size_t used = 0, total = 0;
     ost_batchMemory(b, &used, &total);
@@ -183,25 +197,27 @@ static int benchPlot(const char* png, const char* csv) {
   snprintf(cmd, sizeof(cmd),
            "gnuplot -e \"set terminal png size 900,600; set output '%s'; set logscale xy; "
            "set datafile separator ','; set key top left; set xlabel 'worlds'; "
-           "set ylabel 'world-steps per second (forward)'; set title 'ostrich bench scale'; "
-           "plot '< grep ^cuda, %s' using 2:5 with linespoints title 'cuda forward', "
-           "'< grep ^cpu, %s' using 2:5 with linespoints title 'cpu forward (all cores)', "
-           "'< grep ^cpu, %s' using 2:(60*column(7)) with linespoints title 'cpu fwd+bwd x 60'\" 1>&2",
-           png, csv, csv, csv);
+           "set ylabel 'per second'; set title 'ostrich bench scale'; "
+           "plot '< grep ^cuda, %s' using 2:5 with linespoints title 'cuda world-steps (forward)', "
+           "'< grep ^cpu, %s' using 2:5 with linespoints title 'cpu world-steps (forward, all cores)', "
+           "'< grep ^cuda, %s' using 2:7 with linespoints title 'cuda world-iterations (fwd+bwd)', "
+           "'< grep ^cpu, %s' using 2:7 with linespoints title 'cpu world-iterations (fwd+bwd)'\" 1>&2",
+           png, csv, csv, csv, csv);
   return system(cmd) != 0;
 }
 
 
 static int benchScale(int argc, char** argv) {
   benchArgs a = {"both", "1,8,64,512,4096,8192,32768", "mjcf_models/robot_box.xml", NULL, NULL,
-                 3, 60, 8192, 0};
+                 3, 60, 8192, 10, 0};
   if (cli_parseArgs("bench scale", argc, argv, kBenchOptions, kBenchNumOptions, &a, NULL,
                     &a.help)) {
     return CLI_USAGE;
   }
   if (a.help) {
     printf("usage: ostrich bench scale [options]\n\n"
-           "World scaling of the batched API on the box-traversal scene (forward rollouts).\n\n"
+           "World scaling of the batched API on the box-traversal scene (forward rollouts and\n"
+           "optimization iterations: rollout + backward pass).\n\n"
            "options:\n");
     cli_printOptions(stdout, kBenchOptions, kBenchNumOptions);
     cli_printHelpOption(stdout);
@@ -212,8 +228,8 @@ static int benchScale(int argc, char** argv) {
     cli_error("bench scale: --device must be cuda, cpu or both");
     return CLI_USAGE;
   }
-  if (a.repeat < 1 || a.steps < 1) {
-    cli_error("bench scale: --repeat and --steps must be >= 1");
+  if (a.repeat < 1 || a.steps < 1 || a.checkpoint < 1) {
+    cli_error("bench scale: --repeat, --steps and --checkpoint must be >= 1");
     return CLI_USAGE;
   }
   long counts[BENCH_MAX_COUNTS];
@@ -255,9 +271,9 @@ static int benchScale(int argc, char** argv) {
   }
 
   // the table, with the ratio to the CPU at the same world count
-  printf("%-6s %8s %12s %16s %14s %12s %14s %9s %7s %10s\n", "device", "worlds", "rollout_s",
-         "world_rollouts/s", "world_steps/s", "iter_s", "world_iters/s", "mem_GB", "failed",
-         "vs_cpu");
+  printf("%-6s %8s %12s %16s %14s %12s %14s %9s %7s %10s %10s\n", "device", "worlds",
+         "rollout_s", "world_rollouts/s", "world_steps/s", "iter_s", "world_iters/s", "mem_GB",
+         "failed", "fwd_vs_cpu", "iter_vs_cpu");
   FILE* f = a.csv ? fopen(a.csv, "w") : NULL;
   if (a.csv && !f) {
     cli_error("bench scale: cannot write %s", a.csv);
@@ -265,23 +281,26 @@ static int benchScale(int argc, char** argv) {
   }
   if (f) {
     fprintf(f, "device,worlds,rollout_s,world_rollouts_per_s,world_steps_per_s,iter_s,"
-            "world_iters_per_s,mem_gb,failed,ratio_vs_cpu\n");
+            "world_iters_per_s,mem_gb,failed,fwd_ratio_vs_cpu,iter_ratio_vs_cpu\n");
   }
   for (int r = 0; r < nrow; r++) {
-    double ratio = NAN;
+    double ratio = NAN, iratio = NAN;
     for (int c = 0; c < nrow; c++) {
       if (!strcmp(rows[c].device, "cpu") && rows[c].worlds == rows[r].worlds) {
         ratio = rows[r].world_steps_per_s / rows[c].world_steps_per_s;
+        iratio = rows[c].iter_s / rows[r].iter_s;
       }
     }
     double wips = rows[r].worlds / rows[r].iter_s;
-    printf("%-6s %8d %12.4f %16.1f %14.1f %12.4f %14.1f %9.3f %7d %10.3f\n", rows[r].device,
-           rows[r].worlds, rows[r].rollout_s, rows[r].world_rollouts_per_s,
-           rows[r].world_steps_per_s, rows[r].iter_s, wips, rows[r].mem_gb, rows[r].failed, ratio);
+    printf("%-6s %8d %12.4f %16.1f %14.1f %12.4f %14.1f %9.3f %7d %10.3f %10.3f\n",
+           rows[r].device, rows[r].worlds, rows[r].rollout_s, rows[r].world_rollouts_per_s,
+           rows[r].world_steps_per_s, rows[r].iter_s, wips, rows[r].mem_gb, rows[r].failed, ratio,
+           iratio);
     if (f) {
-      fprintf(f, "%s,%d,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%d,%.6g\n", rows[r].device, rows[r].worlds,
-              rows[r].rollout_s, rows[r].world_rollouts_per_s, rows[r].world_steps_per_s,
-              rows[r].iter_s, wips, rows[r].mem_gb, rows[r].failed, ratio);
+      fprintf(f, "%s,%d,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%d,%.6g,%.6g\n", rows[r].device,
+              rows[r].worlds, rows[r].rollout_s, rows[r].world_rollouts_per_s,
+              rows[r].world_steps_per_s, rows[r].iter_s, wips, rows[r].mem_gb, rows[r].failed,
+              ratio, iratio);
     }
   }
   if (f) {

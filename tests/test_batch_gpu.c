@@ -2,10 +2,14 @@
 // CI as `--device cpu:1` against `cpu`). A mixed batch of one model: every world starts from
 // its own perturbation of qpos0 and gets its own random controls each step; every 7th world
 // gets a NaN control at step T/3, and with --nconmax K a small contact capacity makes some
-// worlds overflow. Both devices run the same rollout; it passes if every state agrees to 1e-9
-// and every world's outcome bits are equal. Prints one JSON line per model with the rollout
-// times of both devices (world-steps per second).
+// worlds overflow. Both devices run the same rollout and its backward pass (random cotangents
+// at every step, segment checkpoints every S steps); it passes if every state agrees to 1e-9,
+// every gradient (controls, start state) to 1e-7 (NaN where the other is NaN: the failed
+// worlds) and every world's outcome bits are equal. Prints one JSON line per model with the
+// times of both devices (world-steps per second forward, world-iterations per second forward
+// and backward).
 //   usage: test_batch_gpu MODEL.xml... [--worlds N] [--steps T] [--nconmax K] [--device D]
+//                                      [--checkpoint S]
 #define _POSIX_C_SOURCE 200809L
 
 #include <math.h>
@@ -30,9 +34,18 @@ static double uniform(unsigned* seed, double lo, double hi) {
 }
 
 
-// run the batch on device; fills qpos/qvel (T x nworld x n) and status; returns seconds or -1
-static double run(const mjModel* m, const char* device, int nworld, int T, const mjtNum* q0,
-                  const mjtNum* ctrl, mjtNum* qpos, mjtNum* qvel, int* status) {
+typedef struct runOut_ {           // one device's rollout and gradients
+  mjtNum *qpos, *qvel;            // T x nworld x nq, nv
+  mjtNum *gctrl, *g0;             // T x nworld x nu; gq0 then gu0 (nworld x nv each)
+  int*    status;                 // after the backward pass
+  double  fwd_s, bwd_s;           // seconds
+} runOut;
+
+
+// run the batch on device forward and backward; returns 0 or -1
+static int run(const mjModel* m, const char* device, int nworld, int T, int checkpoint,
+               const mjtNum* q0, const mjtNum* ctrl, const mjtNum* gq, const mjtNum* gu,
+               runOut* o) {
   char err[1000];
   ostBatch* b = ost_batchCreate(m, nworld, device, err, sizeof(err));
   if (!b) {
@@ -40,18 +53,55 @@ static double run(const mjModel* m, const char* device, int nworld, int T, const
     return -1;
   }
   double t0 = now();
-  int rc = ost_batchSetState(b, q0, NULL) || ost_batchRollout(b, T, ctrl, qpos, qvel)
-           || ost_batchStatus(b, status);
-  double t = now() - t0;
+  int rc = ost_batchSetState(b, q0, NULL) || ost_batchRollout(b, T, ctrl, o->qpos, o->qvel);
+  double t1 = now();
+  rc = rc || ost_batchBackward(b, NULL, checkpoint, gq, gu, o->gctrl, o->g0,
+                               o->g0 + (size_t)nworld * m->nv);
+  o->fwd_s = t1 - t0;
+  o->bwd_s = now() - t1;
+  rc = rc || ost_batchStatus(b, o->status);
   if (rc) {
     fprintf(stderr, "test_batch_gpu: %s: %s\n", device, ost_batchError(b));
   }
   ost_batchDelete(b);
-  return rc ? -1 : t;
+  return rc ? -1 : 0;
 }
 
 
-static int runModel(const char* path, int nworld, int T, int nconmax, const char* device) {
+static runOut allocOut(size_t nqs, size_t nvs, size_t ncs, size_t ng0, int nworld) {
+  runOut o = {malloc(sizeof(mjtNum) * nqs), malloc(sizeof(mjtNum) * nvs),
+              malloc(sizeof(mjtNum) * (ncs + 1)), malloc(sizeof(mjtNum) * ng0),
+              malloc(sizeof(int) * nworld), 0, 0};
+  return o;
+}
+
+
+static void freeOut(runOut* o) {
+  free(o->qpos);
+  free(o->qvel);
+  free(o->gctrl);
+  free(o->g0);
+  free(o->status);
+}
+
+
+// largest |a - b| over n numbers, relative to max(1, |b|); a NaN on one side only counts as
+// infinite, NaN on both as agreement
+static double gradDiff(const mjtNum* a, const mjtNum* b, size_t n) {
+  double e = 0;
+  for (size_t i = 0; i < n; i++) {
+    if (isnan(a[i]) || isnan(b[i])) {
+      e = isnan(a[i]) && isnan(b[i]) ? e : INFINITY;
+    } else {
+      e = fmax(e, fabs(a[i] - b[i]) / fmax(1, fabs(b[i])));
+    }
+  }
+  return e;
+}
+
+
+static int runModel(const char* path, int nworld, int T, int nconmax, int checkpoint,
+                    const char* device) {
   char err[1000] = "";
   mjModel* m = mj_loadXML(path, NULL, err, sizeof(err));
   if (!m) {
@@ -92,57 +142,68 @@ static int runModel(const char* path, int nworld, int T, int nconmax, const char
       }
     }
   }
-  size_t nqs = (size_t)T * nworld * nq, nvs = (size_t)T * nworld * nv;
-  mjtNum *qa = malloc(sizeof(mjtNum) * nqs), *va = malloc(sizeof(mjtNum) * nvs);
-  mjtNum *qb = malloc(sizeof(mjtNum) * nqs), *vb = malloc(sizeof(mjtNum) * nvs);
-  int *sa = malloc(sizeof(int) * nworld), *sb = malloc(sizeof(int) * nworld);
-  double ta = run(m, device, nworld, T, q0, ctrl, qa, va, sa);
-  double tb = run(m, "cpu", nworld, T, q0, ctrl, qb, vb, sb);
-  int ok = ta >= 0 && tb >= 0, nstatus = 0, nfail = 0, nnan = 0, nover = 0;
-  double worst = 0;
-  for (size_t i = 0; ok && i < nqs; i++) worst = fmax(worst, fabs(qa[i] - qb[i]));
-  for (size_t i = 0; ok && i < nvs; i++) worst = fmax(worst, fabs(va[i] - vb[i]));
-  for (int w = 0; ok && w < nworld; w++) {
-    nstatus += sa[w] != sb[w];
-    nfail += (sa[w] & (OST_OVERFLOW | OST_NAN | OST_CHOL_FAIL)) != 0;
-    nnan += (sa[w] & OST_NAN) != 0;
-    nover += (sa[w] & OST_OVERFLOW) != 0;
+  // cotangents of the state after every step
+  size_t nseq = (size_t)(T + 1) * nworld * nv;
+  mjtNum *gq = malloc(sizeof(mjtNum) * nseq), *gu = malloc(sizeof(mjtNum) * nseq);
+  for (size_t i = 0; i < nseq; i++) {
+    gq[i] = uniform(&seed, -1, 1);
+    gu[i] = uniform(&seed, -0.1, 0.1);
   }
-  ok = ok && worst <= 1e-9 && nstatus == 0 && !isnan(worst);
+  size_t nqs = (size_t)T * nworld * nq, nvs = (size_t)T * nworld * nv;
+  size_t ncs = (size_t)T * nworld * nu, ng0 = 2 * (size_t)nworld * nv;
+  runOut a = allocOut(nqs, nvs, ncs, ng0, nworld), c = allocOut(nqs, nvs, ncs, ng0, nworld);
+  int ok = !run(m, device, nworld, T, checkpoint, q0, ctrl, gq, gu, &a)
+           && !run(m, "cpu", nworld, T, checkpoint, q0, ctrl, gq, gu, &c);
+  int nstatus = 0, nfail = 0, nnan = 0, nover = 0;
+  double worst = 0, gworst = 0;
+  for (size_t i = 0; ok && i < nqs; i++) worst = fmax(worst, fabs(a.qpos[i] - c.qpos[i]));
+  for (size_t i = 0; ok && i < nvs; i++) worst = fmax(worst, fabs(a.qvel[i] - c.qvel[i]));
+  if (ok) {
+    gworst = fmax(gradDiff(a.gctrl, c.gctrl, ncs), gradDiff(a.g0, c.g0, ng0));
+  }
+  for (int w = 0; ok && w < nworld; w++) {
+    nstatus += a.status[w] != c.status[w];
+    nfail += (a.status[w] & (OST_OVERFLOW | OST_NAN | OST_CHOL_FAIL)) != 0;
+    nnan += (a.status[w] & OST_NAN) != 0;
+    nover += (a.status[w] & OST_OVERFLOW) != 0;
+  }
+  ok = ok && worst <= 1e-9 && gworst <= 1e-7 && nstatus == 0 && !isnan(worst);
   printf("{\"model\": \"%s\", \"device\": \"%s\", \"worlds\": %d, \"steps\": %d, "
-         "\"max_state_diff\": %.3g, \"status_mismatch\": %d, \"failed_worlds\": %d, "
-         "\"nan_worlds\": %d, \"overflow_worlds\": %d, \"%s_s\": %.4f, \"cpu_s\": %.4f, "
-         "\"%s_world_steps_per_s\": %.1f, \"cpu_world_steps_per_s\": %.1f, \"ok\": %s}\n",
-         path, device, nworld, T, worst, nstatus, nfail, nnan, nover, device, ta, tb, device,
-         nworld * (double)T / ta, nworld * (double)T / tb, ok ? "true" : "false");
+         "\"checkpoint\": %d, \"max_state_diff\": %.3g, \"max_grad_diff\": %.3g, "
+         "\"status_mismatch\": %d, \"failed_worlds\": %d, \"nan_worlds\": %d, "
+         "\"overflow_worlds\": %d, \"%s_fwd_s\": %.4f, \"cpu_fwd_s\": %.4f, "
+         "\"%s_bwd_s\": %.4f, \"cpu_bwd_s\": %.4f, \"%s_world_iters_per_s\": %.1f, "
+         "\"cpu_world_iters_per_s\": %.1f, \"ok\": %s}\n",
+         path, device, nworld, T, checkpoint, worst, gworst, nstatus, nfail, nnan, nover, device,
+         a.fwd_s, c.fwd_s, device, a.bwd_s, c.bwd_s, device, nworld / (a.fwd_s + a.bwd_s),
+         nworld / (c.fwd_s + c.bwd_s), ok ? "true" : "false");
   free(q0);
   free(ctrl);
-  free(qa);
-  free(va);
-  free(qb);
-  free(vb);
-  free(sa);
-  free(sb);
+  free(gq);
+  free(gu);
+  freeOut(&a);
+  freeOut(&c);
   mj_deleteModel(m);
   return ok ? 0 : 1;
 }
 
 
 int main(int argc, char** argv) {
-  int nworld = 256, T = 30, nconmax = 0, status = 0, nmodel = 0;
+  int nworld = 256, T = 30, nconmax = 0, checkpoint = 10, status = 0, nmodel = 0;
   const char* device = "cuda";
   for (int i = 1; i < argc; i++) {
     if (i + 1 < argc && !strcmp(argv[i], "--worlds")) nworld = atoi(argv[++i]);
     else if (i + 1 < argc && !strcmp(argv[i], "--steps")) T = atoi(argv[++i]);
     else if (i + 1 < argc && !strcmp(argv[i], "--nconmax")) nconmax = atoi(argv[++i]);
     else if (i + 1 < argc && !strcmp(argv[i], "--device")) device = argv[++i];
+    else if (i + 1 < argc && !strcmp(argv[i], "--checkpoint")) checkpoint = atoi(argv[++i]);
   }
   for (int i = 1; i < argc; i++) {
     if (argv[i][0] == '-' && argv[i][1] == '-') {
       i++;
       continue;
     }
-    status |= runModel(argv[i], nworld, T, nconmax, device);
+    status |= runModel(argv[i], nworld, T, nconmax, checkpoint, device);
     nmodel++;
   }
   return nmodel ? status : 2;

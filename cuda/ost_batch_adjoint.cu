@@ -1,0 +1,75 @@
+// ost_batch_adjoint.cu: the dual-number half of the CUDA batch's backward pass (declared in
+// ost_batch_gpu.h): core/ compiled with ostNum = ostDual<OSTX_CHUNK>, as plugin/ost_adjoint_dual.cc
+// is for the CPU, and a kernel of GPU thread per world running core/ost_adjoint_jacobian.h's
+// ostx_adjointRecord (the exact step Jacobian and the implicit-function-theorem solve of one
+// record). The double half (replay, checkpoints, records) is ost_batch.cu.
+// Invariant: thread l reads the shared dual model and writes only lane l and its world's
+// control cotangents; no parameters are seeded, so the model is never written.
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <cuda_runtime.h>
+
+#include "ost_dual.h"
+
+// directions of one dual pass: 4 keeps the kernel's stack within OST_STACK_BYTES (8 needs
+// 76 KB); the derivatives do not depend on it (each direction is computed on its own), so the
+// gradients equal the CPU's (OSTX_CHUNK 8) bit for bit
+#define OSTX_CHUNK 4
+#define OST_NUM_TYPE ostDual<OSTX_CHUNK>
+
+#include "ost_adjoint_jacobian.h"
+#include "ost_batch_gpu.h"
+
+__global__ void ost_adjointRecord_kernel(ostModel* m, ostAdjointLayout A, char* lanes, int w0,
+                                         int nworld, int j, ostAdjointSettings as,
+                                         const double* gq, const double* gu, double* gctrl) {
+  int l = blockIdx.x * blockDim.x + threadIdx.x, i = w0 + l;
+  if (l >= A.nlane || i >= nworld) {
+    return;
+  }
+  ostx_adjointRecord(m, &A, lanes, l, i, nworld, j, &as, gq, gu, gctrl);
+}
+
+
+extern "C" int ost_adjointModel_gpu(const void* model, void** dual_dev, char* err, int err_sz) {
+  const ostModelDouble* src = (const ostModelDouble*)model;
+  size_t head = OST_ALIGN64(sizeof(ostModel)), bytes = ostx_dualModelSize(src->s);
+  void* block = aligned_alloc(64, OST_ALIGN64(bytes) + 64);
+  if (!block) {
+    snprintf(err, err_sz, "ost_adjointModel_gpu: out of host memory");
+    return 1;
+  }
+  memset(block, 0, bytes);
+  ostModel host;
+  ostx_dualModel(&host, block, src);
+  char* dev = NULL;
+  cudaError_t e = cudaMalloc(&dev, head + bytes);
+  if (e == cudaSuccess) {
+    e = cudaMemcpy(dev + head, block, bytes, cudaMemcpyHostToDevice);
+  }
+  if (e == cudaSuccess) {
+    ostModel m_dev = host;
+    ostu_modelInit(&m_dev, dev + head);  // pointer arithmetic only: valid for a device base
+    e = cudaMemcpy(dev, &m_dev, sizeof(ostModel), cudaMemcpyHostToDevice);
+  }
+  free(block);
+  if (e != cudaSuccess) {
+    cudaFree(dev);
+  }
+  OST_CUDA_CHECK(e);
+  *dual_dev = dev;
+  return 0;
+}
+
+
+extern "C" int ost_adjointRecord_gpu(void* dual_dev, const ostAdjointLayout* A, char* lanes_dev,
+                                     int w0, int nworld, int j, const ostAdjointSettings* as,
+                                     const double* gq_dev, const double* gu_dev,
+                                     double* gctrl_dev, char* err, int err_sz) {
+  ost_adjointRecord_kernel<<<(A->nlane + OST_BLOCK - 1) / OST_BLOCK, OST_BLOCK>>>(
+      (ostModel*)dual_dev, *A, lanes_dev, w0, nworld, j, *as, gq_dev, gu_dev, gctrl_dev);
+  OST_CUDA_CHECK(cudaGetLastError());
+  return 0;
+}
