@@ -358,6 +358,82 @@ START_TEST(test_batchBackwardEqualsTape) {
 END_TEST
 
 
+// the backward pass records at most 2 S + 8 substeps per segment of S steps: with split_tol 0
+// every step splits to split_depth 3 (8 substeps); segments of one step hold them and give the
+// tape's gradients, segments of two steps (16 > 12) overflow and say so (NaN gradients,
+// OST_OVERFLOW), and the forward rollout is the same either way
+START_TEST(test_batchBackwardRecordCapacity) {
+  ost_fixtureSetup();
+  char path[1024], *xml = NULL;
+  snprintf(path, sizeof(path), "%s/robot_box.xml", OST_MODEL_DIR);
+  FILE* f = fopen(path, "rb");
+  ck_assert_ptr_nonnull(f);
+  fseek(f, 0, SEEK_END);
+  long n = ftell(f);
+  fseek(f, 0, SEEK_SET);
+  xml = calloc(n + 2200, 1);
+  ck_assert_int_eq((long)fread(xml, 1, n, f), n);
+  fclose(f);
+  char* at = strstr(xml, "<custom>") + strlen("<custom>");
+  const char* add = "<numeric name=\"ostrich/split_tol\" data=\"0\"/>";
+  memmove(at + strlen(add), at, strlen(at) + 1);
+  memcpy(at, add, strlen(add));
+  at = strstr(xml, "file=\"") + strlen("file=\"");  // the include, from the fixture's /tmp
+  char dir[1100];
+  snprintf(dir, sizeof(dir), "..%s/", OST_MODEL_DIR);
+  memmove(at + strlen(dir), at, strlen(at) + 1);
+  memcpy(at, dir, strlen(dir));
+  mjModel* m = ost_fixtureLoadString(xml);
+  free(xml);
+  int T = 4, nv = m->nv, nu = m->nu;
+  mjtNum ctrl[4 * 3], gq[5 * 9] = {0}, gctrl[4 * 3], gq0[9], gu0[9], tc[4 * 3], tq0[9], tu0[9];
+  for (int i = 0; i < T * nu; i++) ctrl[i] = 2;
+  gq[T * nv] = 1;
+
+  // the oracle: the tape (no capacity)
+  mjData* d = mj_makeData(m);
+  ostOptions o;
+  ck_assert_int_eq(ost_readOptions(m, &o, NULL, 0), OST_OK);
+  ck_assert_double_eq(o.split_tol, 0);
+  o.geometry = OST_GEOMETRY_NATIVE;
+  ck_assert_int_eq(ost_setOptions(m, d, &o), OST_OK);
+  ostTape* tape = ost_tapeCreate(m, 0);
+  for (int t = 0; t < T; t++) {
+    memcpy(d->ctrl, ctrl + t * nu, nu * sizeof(mjtNum));
+    ck_assert_int_eq(ost_tapeStep(tape, m, d), OST_OK);
+  }
+  ck_assert_int_eq(ost_tapeBackward(tape, m, NULL, gq, NULL, tc, tq0, tu0, NULL), OST_OK);
+
+  char err[1000];
+  ostBatch* b = ost_batchCreate(m, 1, "cpu:1", err, sizeof(err));
+  ck_assert_msg(b != NULL, "%s", err);
+  for (int checkpoint = 1; checkpoint <= 2; checkpoint++) {
+    int status;
+    ck_assert_int_eq(ost_batchSetState(b, NULL, NULL), OST_OK);
+    ck_assert_int_eq(ost_batchRollout(b, T, ctrl, NULL, NULL), OST_OK);
+    ck_assert_int_eq(ost_batchStatus(b, &status), OST_OK);
+    ck_assert_int_eq(status & OST_OVERFLOW, 0);
+    ck_assert_int_eq(ost_batchBackward(b, NULL, checkpoint, gq, NULL, gctrl, gq0, gu0), OST_OK);
+    ck_assert_int_eq(ost_batchStatus(b, &status), OST_OK);
+    printf("split every step, checkpoint %d: status %d, dL/dctrl[0] %.6g (tape %.6g)\n",
+           checkpoint, status, gctrl[0], tc[0]);
+    if (checkpoint == 1) {
+      ck_assert_double_eq(maxDiff(gctrl, tc, T * nu), 0);
+      ck_assert_double_eq(maxDiff(gq0, tq0, nv) + maxDiff(gu0, tu0, nv), 0);
+      ck_assert_int_eq(status & OST_OVERFLOW, 0);
+    } else {
+      ck_assert(isnan(gctrl[0]) && isnan(gq0[0]));
+      ck_assert_int_eq(status & OST_OVERFLOW, OST_OVERFLOW);
+    }
+  }
+  ost_batchDelete(b);
+  ost_tapeDelete(tape);
+  ost_deleteData(d);
+  mj_deleteModel(m);
+}
+END_TEST
+
+
 // refused: bad arguments, unknown devices, cuda without a CUDA build, models native cannot do
 START_TEST(test_batchErrors) {
   ost_fixtureSetup();
@@ -408,6 +484,7 @@ static Suite* suite(void) {
   tcase_add_test(tc, test_batchMixed);
   tcase_add_test(tc, test_batchBackward);
   tcase_add_test(tc, test_batchBackwardEqualsTape);
+  tcase_add_test(tc, test_batchBackwardRecordCapacity);
   tcase_add_test(tc, test_batchErrors);
   suite_add_tcase(s, tc);
   return s;
