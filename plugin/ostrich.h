@@ -287,13 +287,18 @@ int ost_batchStep(ostBatch* b);
 int ost_batchRollout(ostBatch* b, int nstep, const mjtNum* ctrl, mjtNum* qpos, mjtNum* qvel);
 
 // Gradients of a loss of the last rollout, which must have started right after
-// ost_batchSetState (cpu device; cuda: not yet, OST_ERR_INPUT). gq, gu ((nstep + 1) x nworld x
-// nv, step-major; NULL = zero): the loss's cotangents with respect to each world's state after
-// each step, row 0 the start (qpos as a tangent vector, see ost_tapeBackward). Returns gctrl
+// ost_batchSetState (cpu and cuda alike, same bits). gq, gu ((nstep + 1) x nworld x nv,
+// step-major; NULL = zero): the loss's cotangents with respect to each world's state after each
+// step, row 0 the start (qpos as a tangent vector, see ost_tapeBackward). Returns gctrl
 // (nstep x nworld x nu) and gq0, gu0 (nworld x nv); any may be NULL. Each world's rollout is
-// replayed through a tape (ost_tapeStep with the native provider, the same bits as the batch:
-// segment checkpointing every `checkpoint` steps, 0 = none) and run backward on the batch's
-// threads. A world whose replay or backward pass fails gets NaN gradients and OST_NAN.
+// replayed from its start with a checkpoint every `checkpoint` steps (0 = one segment), then
+// segment by segment backward: the segment is replayed once more recording its substeps, and
+// each substep's exact Jacobian (dual numbers) gives the implicit-function-theorem update
+// (core/ost_batch_adjoint.h). Memory per lane: the checkpoints and one segment's records; a
+// segment of S steps records at most 2 S + 8 substeps. A world whose rollout failed, whose
+// segment records more substeps (OST_OVERFLOW) or whose Jacobian is singular (OST_NAN) gets
+// NaN gradients and that bit. go->truncate is honoured; go->params is refused (no parameter
+// gradients for batches: use a tape).
 int ost_batchBackward(ostBatch* b, const ostGradOptions* go, int checkpoint, const mjtNum* gq,
                       const mjtNum* gu, mjtNum* gctrl, mjtNum* gq0, mjtNum* gu0);
 
