@@ -1,0 +1,86 @@
+// ost_batch_internal.h: what the batch's two halves share: the batch itself, a CPU thread's
+// share of the worlds, and the helpers of plugin/ost_batch.c (creation, state, forward) used by
+// plugin/ost_batch_backward.c (the backward pass).
+// Invariant: only ost_batch*.c include this.
+#ifndef OSTRICH_PLUGIN_OST_BATCH_INTERNAL_H_
+#define OSTRICH_PLUGIN_OST_BATCH_INTERNAL_H_
+
+#include "ost_adjoint.h"
+#include "ost_batch.h"
+#include "ost_batch_adjoint.h"
+#include "ost_internal.h"
+
+#ifdef OSTRICH_HAVE_CUDA
+#include "ost_batch_gpu.h"
+#endif
+
+#define OST_BATCH_MAX_THREADS 256
+
+// lanes of the cuda batch's forward kernels: GPU threads, each stepping worlds l, l + nlane, ..
+#define OST_CUDA_LANES 32768
+
+// most lanes of the cuda batch's backward pass (fewer if the GPU's memory is short)
+#define OST_CUDA_ADJOINT_LANES 16384
+
+// substeps a backward segment of S steps may record: 2 S + 8 (a step split once takes 2, a
+// step split three levels deep 8)
+#define OST_RECORDS_PER_STEP 2
+#define OST_RECORDS_EXTRA 8
+
+struct ostBatch_ {
+  int             cuda;           // 1: worlds live on the GPU
+  int             nthread;        // CPU threads (cpu device)
+  int             nq, nv, nu;     // the model's sizes
+  ostStepSettings set;            // solver settings from the model's options
+  ostOptions      opt;            // the model's options
+  ostModel        model;          // packed model (host)
+  void*           model_block;    // its allocation
+  size_t          model_bytes;    // its size
+  ostModel        model_dev;      // the device copy (cuda)
+  void*           model_dev_block;
+  ostBatchLayout  L;              // world and lane layout
+  char*           worlds;         // L.total bytes: host (cpu) or device (cuda)
+  char*           lanes;          // L.lane_total bytes, same place
+  ostNum*         qpos0;          // the model's qpos0 (nq)
+  int             fresh;          // 1: no step since ost_batchSetState
+  int             rec_nstep;      // steps of the last rollout from a set state (0: none)
+  char*           rec_start;      // its start: a copy of the worlds (host or device)
+  ostNum*         rec_ctrl;       // its controls, rec_nstep x nworld x nu (NULL: the worlds')
+  void*           adj_work;       // dual model for the backward pass (ostd_workCreate; cuda:
+                                  // its device copy)
+  void*           adj_dev_block;  // cuda: the device dual model's block
+  char*           adj_lanes;      // adjoint lanes (host or device)
+  size_t          adj_bytes;      // their size
+  char            err[1000];      // last failure
+};
+
+
+typedef struct cpuChunk_ {        // one thread's share: worlds [w0, w1) in lane `lane`
+  const ostBatch*       b;
+  int                   lane;
+  int                   w0, w1;
+  int                   nstep;
+  const ostNum*         ctrl;
+  ostNum*               qpos;
+  ostNum*               qvel;
+  // backward pass only
+  const ostAdjointLayout*   A;
+  const ostAdjointSettings* as;
+  const ostNum*         gq;
+  const ostNum*         gu;
+  ostNum*               gctrl;
+  ostNum*               gq0;
+  ostNum*               gu0;
+} cpuChunk;
+
+
+// record a failure message in the batch and return status
+int ost_batchFail(ostBatch* b, int status, const char* msg);
+
+// free host (cpu) or device (cuda) memory of the batch (NULL is ignored)
+void ost_batchFreeMem(const ostBatch* b, void* p);
+
+// fn on every world: nthread threads, contiguous chunks, thread t in lane t
+void ost_batchRunChunks(ostBatch* b, void* (*fn)(void*), cpuChunk proto);
+
+#endif  // OSTRICH_PLUGIN_OST_BATCH_INTERNAL_H_
