@@ -2,8 +2,8 @@
 // build (DESIGN.md section 2; paper section III-D). A world's pass runs in an adjoint lane
 // (core/ost_adjoint.h's OST_ADJOINT_LANE_ARRAYS) in four phases, which the CPU batch calls in
 // order for each world and the CUDA batch launches as kernels over a wave of worlds:
-//   1 osti_adjointForward  replay the rollout from the world's start, keeping a checkpoint of
-//                          the world at the start of every segment of A->seg steps
+//   1 osti_adjointForward  replay the rollout from the world's start up to its last segment,
+//                          keeping a checkpoint at the start of every segment of A->seg steps
 //   2 osti_adjointReplay   replay segment k from its checkpoint, recording each committed
 //                          substep (state, controls, rows, multipliers)
 //   3 ostx_adjointRecord   (ost_adjoint_jacobian.h, dual build) the implicit function theorem
@@ -29,8 +29,9 @@
 extern "C" {
 #endif
 
-// phase 1: replay world i's T steps from its start slice in lane l, checkpointing each segment's
-// start; the running cotangent starts at time T
+// phase 1: replay world i from its start slice in lane l up to the last segment's start,
+// checkpointing each segment's start (the last segment is first stepped by its phase 2); the
+// running cotangent starts at time T
 OST_HD void osti_adjointForward(const ostModel* m, const ostBatchLayout* L,
                                 const ostAdjointLayout* A, const char* start, char* lanes, int l,
                                 int i, const ostStepSettings* set, int T, const ostNum* ctrl_seq,
@@ -39,27 +40,24 @@ OST_HD void osti_adjointForward(const ostModel* m, const ostBatchLayout* L,
   ostu_adjointLane(&al, A, lanes, l);
   size_t ws = A->world_stride;
   for (size_t b = 0; b < ws; b++) al.ckpt[b] = start[b];
-  for (int k = 0; k < A->nseg; k++) {
+  for (int k = 0; k + 1 < A->nseg; k++) {
     char* ck = al.ckpt + k * ws;
     for (size_t b = 0; b < ws; b++) al.cur[b] = ck[b];
-    int t1 = (k + 1) * A->seg < T ? (k + 1) * A->seg : T;
-    osti_worldRollout(m, L, al.cur, al.work, i, set, k * A->seg, t1, ctrl_seq, NULL, NULL, NULL);
-    if (k + 1 < A->nseg) {
-      for (size_t b = 0; b < ws; b++) ck[ws + b] = al.cur[b];
-    }
+    osti_worldRollout(m, L, al.cur, al.work, i, set, k * A->seg, (k + 1) * A->seg, ctrl_seq, NULL,
+                      NULL, NULL);
+    for (size_t b = 0; b < ws; b++) ck[ws + b] = al.cur[b];
   }
-  ostBatchView v;
-  ostu_batchView(&v, L, al.cur);
   al.info[OST_ADJ_NREC] = 0;
   al.info[OST_ADJ_STEP] = T;
-  al.info[OST_ADJ_FAILED] = (*v.status & OST_STEP_FAILED) ? OST_STEP_NAN : 0;
+  al.info[OST_ADJ_FAILED] = 0;
   for (int j = 0; j < 2 * A->s.nv; j++) al.g[j] = 0;
   osti_adjointInject(A, &al, i, L->nworld, T, gq, gu);
 }
 
 
-// phase 2: replay segment k of world i from its checkpoint, recording its committed substeps
-// (more than A->rec_cap fails the world with OST_STEP_OVERFLOW)
+// phase 2: replay segment k of world i from its checkpoint, recording its committed substeps.
+// A world whose rollout failed (failure bits are sticky, so the last segment, replayed first,
+// ends with them) fails with OST_STEP_NAN; more than A->rec_cap substeps with OST_STEP_OVERFLOW.
 OST_HD void osti_adjointReplay(const ostModel* m, const ostBatchLayout* L,
                                const ostAdjointLayout* A, char* lanes, int l, int i,
                                const ostStepSettings* set, int T, int k, const ostNum* ctrl_seq) {
@@ -74,6 +72,12 @@ OST_HD void osti_adjointReplay(const ostModel* m, const ostBatchLayout* L,
   ostRecordSink sink = {al.rec, A->s, A->nrow_max, A->rec_cap, 0, 0};
   int t1 = (k + 1) * A->seg < T ? (k + 1) * A->seg : T;
   osti_worldRollout(m, L, al.cur, al.work, i, set, k * A->seg, t1, ctrl_seq, NULL, NULL, &sink);
+  ostBatchView v;
+  ostu_batchView(&v, L, al.cur);
+  if (*v.status & OST_STEP_FAILED) {
+    al.info[OST_ADJ_FAILED] = OST_STEP_NAN;
+    return;
+  }
   if (sink.n > A->rec_cap) {
     al.info[OST_ADJ_FAILED] = OST_STEP_OVERFLOW;
     return;

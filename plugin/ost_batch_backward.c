@@ -50,15 +50,13 @@ static int adjointLanes(ostBatch* b, int seg, int nlane_max, ostAdjointLayout* A
   int nlane = nlane_max < b->L.nworld ? nlane_max : b->L.nworld;
 #ifdef OSTRICH_HAVE_CUDA
   if (b->cuda) {
-    // at most half the free memory, so that the cotangent arrays fit beside
+    // at most half the free memory (the lanes we hold counted as free), so that the cotangent
+    // arrays fit beside; lanes that are large enough are kept from the last call
     size_t free_bytes = 0, total = 0;
-    ost_batchFree_gpu(b->adj_lanes);
-    b->adj_lanes = NULL;
-    b->adj_bytes = 0;
     if (ost_batchMemInfo_gpu(&free_bytes, &total)) {
       return ost_batchFail(b, OST_ERR_MEMORY, "ost_batchBackward: cannot query the GPU's memory");
     }
-    size_t fit = free_bytes / 2 / A->stride;
+    size_t fit = (free_bytes + b->adj_bytes) / 2 / A->stride;
     nlane = (size_t)nlane < fit ? nlane : (int)fit;
     if (nlane < 1) {
       return ost_batchFail(b, OST_ERR_MEMORY, "ost_batchBackward: no GPU memory for one lane");
