@@ -153,20 +153,22 @@ typedef struct ostAdjointSettings_ { // what a record's backward pass needs besi
 #define OST_ADJOINT_LANE_ARRAYS(X)                                                               \
   X(char,   work,  A->lane_stride)                  /* a batch lane: the step's work arrays  */ \
   X(char,   cur,   A->world_stride)                 /* the world being replayed              */ \
-  X(char,   ckpt,  A->world_stride * A->nseg)       /* the world at each segment's start     */ \
+  X(char,   ckpt,  A->world_stride * A->nckpt)      /* the world at each segment's start     */ \
   X(char,   rec,   A->rec_size * A->rec_cap)        /* the segment's substep records         */ \
   X(char,   jac,   A->jac_size)                     /* dual work (ostJacWork's block)        */ \
+  X(double, lam,   A->nrow_max)                     /* multipliers matched onto the rows     */ \
   X(double, G,     (size_t)(A->ny_max + 2 * A->s.nv) * A->ncol_max) /* step Jacobian          */ \
   X(double, K,     (size_t)A->ny_max * A->ny_max)   /* its y block, LU-factored              */ \
   X(int,    piv,   A->ny_max)                       /* pivots                                */ \
   X(double, w,     A->ny_max)                       /* K' w = -O_y' g                        */ \
   X(double, gxi,   A->ncol_max)                     /* cotangent of (dq-, u-, ctrl)          */ \
   X(double, g,     2 * A->s.nv)                     /* running cotangent of (q, u)           */ \
-  X(int,    info,  4)                               /* records, step, failed, spare          */
+  X(int,    info,  4)                               /* records, step, failed, ny             */
 
 #define OST_ADJ_NREC   0          // info[]: records of the current segment
 #define OST_ADJ_STEP   1          // the step whose records are being processed (T: none yet)
 #define OST_ADJ_FAILED 2          // OST_STEP_* bit of a failed rollout or backward pass (0: none)
+#define OST_ADJ_NY     3          // unknowns of the record being differentiated (0: none)
 
 typedef struct ostAdjointLayout_ {  // where each array of an adjoint lane sits
   ostSizes s;                     // the model's sizes
@@ -177,6 +179,8 @@ typedef struct ostAdjointLayout_ {  // where each array of an adjoint lane sits
   int    ny_max;                  // nv + nrow_max
   int    ncol_max;                // ny_max + 2 nv + nu
   int    nlane;                   // lanes
+  int    njac;                    // threads sharing a record's columns (phase 3b)
+  int    nckpt;                   // checkpoints a lane keeps: nseg, or 0 if the rollout kept them
   int    pad;
   size_t world_stride;            // bytes of one world (ostBatchLayout.stride)
   size_t lane_stride;             // bytes of one batch lane (ostBatchLayout.lane_stride)
@@ -197,7 +201,7 @@ typedef struct ostAdjointLane_ {  // one lane's arrays
 
 
 // the layout of nlane adjoint lanes (A->s, nrow_max, nseg, seg, rec_cap, world_stride,
-// lane_stride and jac_size set by the caller)
+// lane_stride, jac_size, njac and nckpt set by the caller)
 OST_HD void ostu_adjointLayout(ostAdjointLayout* A, int nlane) {
   A->nlane = nlane;
   A->ny_max = A->s.nv + A->nrow_max;
@@ -220,6 +224,18 @@ OST_HD void ostu_adjointLane(ostAdjointLane* v, const ostAdjointLayout* A, char*
 #define X(type, name, n) v->name = (type*)(p + A->name);
   OST_ADJOINT_LANE_ARRAYS(X)
 #undef X
+}
+
+
+// record j from the end of lane al's segment as the step its Jacobian differentiates
+OST_HD void ostu_recordStep(ostdStep* st, ostStepRec* r, const ostAdjointLayout* A,
+                            const ostAdjointLane* al, int j, const ostAdjointSettings* as) {
+  ostu_stepRecView(r, al->rec + (size_t)(al->info[OST_ADJ_NREC] - 1 - j) * A->rec_size, A->s,
+                   A->nrow_max);
+  ostdStep s = {NULL, r->qpos_prev, r->qvel_prev, r->qvel, r->ctrl, NULL, NULL, r->rows,
+                r->lambda, *r->nrow, as->truncate, *r->h, as->lookahead, as->reg, as->creep,
+                as->fb_eps, 0, NULL, NULL, NULL};
+  *st = s;
 }
 
 

@@ -121,10 +121,11 @@ OST_HD void ostx_seedParam(ostModel* m, const ostdStep* st, int p, int k) {
 
 
 // one evaluation of R and O at the step's values with the columns [col0, col0 + OSTX_CHUNK)
-// seeded (col0 < 0: no seeds). ny = nv + nrow of the native rows (known after the first call).
+// seeded (col0 < 0: no seeds). ny = nv + nrow of the native rows (known after the first call);
+// lam: the multipliers matched onto them (NULL: the values wk->lambda already holds).
 // Returns OST_ROWS_* or -1 if the rows differ from the first evaluation's.
 OST_HD int ostx_jacEvaluate(ostJacWork* wk, const ostdStep* st, int col0, int ny,
-                            int nrow_expect) {
+                            int nrow_expect, const double* lam) {
   ostModel* m = wk->m;
   int nq = m->s.nq, nv = m->s.nv, nu = m->s.nu;
   for (int i = 0; i < nq; i++) wk->qpos[i] = st->qpos_prev[i];
@@ -138,7 +139,7 @@ OST_HD int ostx_jacEvaluate(ostJacWork* wk, const ostdStep* st, int col0, int ny
   for (int i = 0; i < 6 * m->s.nbody; i++) {
     wk->xfrc[i] = st->xfrc_applied ? st->xfrc_applied[i] : 0;
   }
-  for (int i = 0; i < nrow_expect; i++) wk->lambda[i] = (double)wk->lambda[i];
+  for (int i = 0; i < nrow_expect; i++) wk->lambda[i] = lam ? lam[i] : (double)wk->lambda[i];
   if (st->nparam > 0) {
     ostx_clearParamSeeds(m);
   }
@@ -185,24 +186,17 @@ OST_HD int ostx_jacEvaluate(ostJacWork* wk, const ostdStep* st, int col0, int ny
 }
 
 
-// Exact Jacobian of the step's residual and outputs. The native rows at q+ are recomputed and
-// the recorded multipliers matched onto them (by object and contact key); n = nv + their count.
-// G ((n + 2 nv) x ncol, row-major, ncol = n + 2 nv + nu + nparam) receives the rows R (n) then
-// O = (dq+, u+) (2 nv), differentiated by the columns y = (u, lambda) (n) then xi = (dq-, u-,
-// ctrl, theta). *resid gets |R| at the solution. Returns 0, 1 if G needs more than G_cap
-// doubles (*n still set), 2 if the rows overflow or differ between evaluations.
-OST_HD int ostx_stepJacobian(ostJacWork* wk, const ostdStep* st, double* G, size_t G_cap,
-                             int* n_out, double* resid) {
-  int nv = wk->m->s.nv, nu = wk->m->s.nu;
+// The structure pass of a step's Jacobian: the native rows at q+ are recomputed and the
+// recorded multipliers matched onto them (by object and contact key); their values go to lam
+// (nrow_max, or NULL) and n = nv + their count to *n_out. Returns 0, or 2 if the rows overflow.
+OST_HD int ostx_jacStructure(ostJacWork* wk, const ostdStep* st, double* lam, int* n_out) {
   if (st->nrow > wk->nrow_max) {
     return 2;
   }
-
-  // structure pass: the native rows at q+, and the recorded multipliers matched onto them
-  if (ostx_jacEvaluate(wk, st, -1, 0, -1)) {
+  if (ostx_jacEvaluate(wk, st, -1, 0, -1, NULL)) {
     return 2;
   }
-  int nrow = wk->w.nrow, ny = nv + nrow;
+  int nrow = wk->w.nrow;
   const ostRowDouble* rr = (const ostRowDouble*)st->rows;
   for (int i = 0; i < st->nrow; i++) {
     ostRow* r = wk->rec + i;
@@ -215,16 +209,21 @@ OST_HD int ostx_stepJacobian(ostJacWork* wk, const ostdStep* st, double* G, size
     wk->rec_lambda[i] = st->lambda[i];
   }
   osti_matchRows(wk->lambda, wk->w.rows, nrow, wk->rec_lambda, wk->rec, st->nrow, wk->used);
-  *n_out = ny;
-  int nout = ny + 2 * nv, ncol = ny + 2 * nv + nu + st->nparam;
-  if ((size_t)nout * ncol > G_cap) {
-    return 1;
-  }
+  for (int i = 0; lam && i < nrow; i++) lam[i] = (double)wk->lambda[i];
+  *n_out = wk->m->s.nv + nrow;
+  return 0;
+}
 
-  // column chunks: every output's derivatives in the seeded directions
-  double r2 = 0;
-  for (int col0 = 0; col0 < ncol; col0 += OSTX_CHUNK) {
-    if (ostx_jacEvaluate(wk, st, col0, ny, nrow)) {
+
+// The column chunks col0 = c0, c0 + cstep, .. (< ncol) of G (layout of ostx_stepJacobian) after
+// the structure pass gave ny and lam (NULL: this work's own pass). Threads with their own works
+// may fill disjoint chunks of one G. *r2 (if not NULL) gets |R|^2 when chunk 0 is among them.
+// Returns 0, or 2 if the rows differ from the structure pass's.
+OST_HD int ostx_jacColumns(ostJacWork* wk, const ostdStep* st, const double* lam, int ny,
+                           int c0, int cstep, double* G, int ncol, double* r2) {
+  int nv = wk->m->s.nv;
+  for (int col0 = c0; col0 < ncol; col0 += cstep) {
+    if (ostx_jacEvaluate(wk, st, col0, ny, ny - nv, lam)) {
       return 2;
     }
     for (int k = 0; k < OSTX_CHUNK && col0 + k < ncol; k++) {
@@ -235,56 +234,97 @@ OST_HD int ostx_stepJacobian(ostJacWork* wk, const ostdStep* st, double* G, size
         G[(size_t)(ny + nv + i) * ncol + c] = wk->u[i].d[k];
       }
     }
-    if (col0 == 0) {
-      for (int i = 0; i < ny; i++) r2 += wk->R[i].v * wk->R[i].v;
+    if (col0 == 0 && r2) {
+      *r2 = 0;
+      for (int i = 0; i < ny; i++) *r2 += wk->R[i].v * wk->R[i].v;
     }
+  }
+  return 0;
+}
+
+
+// Exact Jacobian of the step's residual and outputs: the structure pass, then every column
+// chunk; n = nv + the count of the rows at q+. G ((n + 2 nv) x ncol, row-major, ncol = n + 2 nv
+// + nu + nparam) receives the rows R (n) then O = (dq+, u+) (2 nv), differentiated by the
+// columns y = (u, lambda) (n) then xi = (dq-, u-, ctrl, theta). *resid gets |R| at the
+// solution. Returns 0, 1 if G needs more than G_cap doubles (*n still set), 2 if the rows
+// overflow or differ between evaluations.
+OST_HD int ostx_stepJacobian(ostJacWork* wk, const ostdStep* st, double* G, size_t G_cap,
+                             int* n_out, double* resid) {
+  int nv = wk->m->s.nv, nu = wk->m->s.nu, ny;
+  if (ostx_jacStructure(wk, st, NULL, &ny)) {
+    return 2;
+  }
+  *n_out = ny;
+  int nout = ny + 2 * nv, ncol = ny + 2 * nv + nu + st->nparam;
+  if ((size_t)nout * ncol > G_cap) {
+    return 1;
+  }
+  double r2 = 0;
+  if (ostx_jacColumns(wk, st, NULL, ny, 0, OSTX_CHUNK, G, ncol, &r2)) {
+    return 2;
   }
   *resid = sqrt(r2);
   return 0;
 }
 
 
-// phase 3 of a batch world's backward pass (core/ost_batch_adjoint.h): record nrec - 1 - j of
-// lane l's segment (nothing if j >= nrec or the world failed). g, the cotangent of the record's
-// (q+, u+) once the cotangents of later times are in, becomes that of its (q-, u-); its
-// controls' cotangent accumulates into gctrl ((T x nworld x nu), or NULL). m: the dual model,
-// shared by all lanes (no parameters are seeded).
-OST_HD void ostx_adjointRecord(ostModel* m, const ostAdjointLayout* A, char* lanes, int l, int i,
-                               int nworld, int j, const ostAdjointSettings* as, const double* gq,
-                               const double* gu, double* gctrl) {
+// Phase 3 of a batch world's backward pass (core/ost_batch_adjoint.h), on record nrec - 1 - j of
+// lane l's segment (nothing if j >= nrec or the world failed), in three parts so that a record's
+// column chunks can run in parallel: 3a ostx_recordStructure (in the lane's dual work),
+// 3b ostx_recordColumns (column thread t of njac), 3c osti_recordSolve (double build). m: the dual
+// model, shared by all lanes (no parameters are seeded).
+
+// 3a: the cotangents of the steps after the record's are injected; the structure pass sets
+// info[OST_ADJ_NY] (0: nothing to do) and the lane's matched multipliers
+OST_HD void ostx_recordStructure(ostModel* m, const ostAdjointLayout* A, char* lanes, int l,
+                                 int i, int nworld, int j, const ostAdjointSettings* as,
+                                 const double* gq, const double* gu) {
   ostAdjointLane al;
   ostu_adjointLane(&al, A, lanes, l);
   int* info = al.info;
+  info[OST_ADJ_NY] = 0;
   if (info[OST_ADJ_FAILED] || j >= info[OST_ADJ_NREC]) {
     return;
   }
   ostStepRec r;
-  ostu_stepRecView(&r, al.rec + (size_t)(info[OST_ADJ_NREC] - 1 - j) * A->rec_size, A->s,
-                   A->nrow_max);
+  ostdStep st;
+  ostu_recordStep(&st, &r, A, &al, j, as);
   while (info[OST_ADJ_STEP] > *r.step + 1) {
     info[OST_ADJ_STEP]--;
     osti_adjointInject(A, &al, i, nworld, info[OST_ADJ_STEP], gq, gu);
   }
-  ostdStep st = {NULL, r.qpos_prev, r.qvel_prev, r.qvel, r.ctrl, NULL, NULL, r.rows, r.lambda,
-                 *r.nrow, as->truncate, *r.h, as->lookahead, as->reg, as->creep, as->fb_eps,
-                 0, NULL, NULL, NULL};
   ostJacWork jw;
   ostx_jacWorkInit(&jw, al.jac, m, A->nrow_max);
-  int nv = A->s.nv, nu = A->s.nu, ny;
-  double resid;
-  size_t G_cap = (size_t)(A->ny_max + 2 * nv) * A->ncol_max;
-  if (ostx_stepJacobian(&jw, &st, al.G, G_cap, &ny, &resid)) {
+  int ny;
+  if (ostx_jacStructure(&jw, &st, al.lam, &ny) || ny > A->ny_max) {
     info[OST_ADJ_FAILED] = OST_STEP_OVERFLOW;  // the rows at q+ exceed the capacity
     return;
   }
-  int ncol = ny + 2 * nv + nu;
-  if (osti_adjointSolve(al.G, ny, nv, ncol, al.K, al.piv, al.w, al.g, al.g + nv, al.gxi)) {
-    info[OST_ADJ_FAILED] = OST_STEP_NAN;  // singular Jacobian
+  info[OST_ADJ_NY] = ny;
+}
+
+
+// 3b: the column chunks t, t + njac, .. of the record's Jacobian into the lane's G, in the dual
+// work block `work` (NULL: the lane's own); the njac threads of a lane need blocks of their
+// own and fill disjoint columns. OST_STEP_OVERFLOW if the rows differ from the structure pass's.
+OST_HD void ostx_recordColumns(ostModel* m, const ostAdjointLayout* A, char* lanes, int l, int t,
+                               int j, const ostAdjointSettings* as, char* work) {
+  ostAdjointLane al;
+  ostu_adjointLane(&al, A, lanes, l);
+  int ny = al.info[OST_ADJ_NY];
+  if (ny == 0) {
     return;
   }
-  for (int k = 0; k < 2 * nv; k++) al.g[k] = al.gxi[k];
-  for (int a = 0; gctrl && a < nu; a++) {
-    gctrl[((size_t)*r.step * nworld + i) * nu + a] += al.gxi[2 * nv + a];
+  ostStepRec r;
+  ostdStep st;
+  ostu_recordStep(&st, &r, A, &al, j, as);
+  ostJacWork jw;
+  ostx_jacWorkInit(&jw, work ? work : al.jac, m, A->nrow_max);
+  int ncol = ny + 2 * A->s.nv + A->s.nu;
+  if (ostx_jacColumns(&jw, &st, al.lam, ny, t * OSTX_CHUNK, A->njac * OSTX_CHUNK, al.G, ncol,
+                      NULL)) {
+    al.info[OST_ADJ_FAILED] = OST_STEP_OVERFLOW;
   }
 }
 

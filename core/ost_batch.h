@@ -112,6 +112,14 @@ OST_HD void ostu_laneView(ostLaneView* v, const ostBatchLayout* L, char* p) {
 }
 
 
+// copy n bytes (a multiple of 8, both 8-byte aligned: whole world or lane slices) word by word
+OST_HD void ostu_copyWords(char* dst, const char* src, size_t n) {
+  unsigned long long* d = (unsigned long long*)dst;
+  const unsigned long long* s = (const unsigned long long*)src;
+  for (size_t k = 0; k < n / 8; k++) d[k] = s[k];
+}
+
+
 // 1 if the n numbers are finite
 OST_HD int osti_allFinite(const ostNum* x, int n) {
   for (int i = 0; i < n; i++) {
@@ -177,12 +185,23 @@ OST_HD void osti_worldRollout(const ostModel* m, const ostBatchLayout* L, char* 
 }
 
 
-// T steps of world i of the batch, in lane l (osti_worldRollout from step 0)
+// T steps of world i of the batch, in lane l (osti_worldRollout from step 0). kept (or NULL):
+// world i's slice is copied to kept + (k nworld + i) stride at each step k `every` (k = 0, 1, ..
+// while k every < T), the checkpoints of a backward pass (core/ost_batch_adjoint.h)
 OST_HD void osti_batchRollout(const ostModel* m, const ostBatchLayout* L, char* worlds,
                               char* lanes, int i, int l, const ostStepSettings* set, int T,
-                              const ostNum* ctrl_seq, ostNum* qpos_out, ostNum* qvel_out) {
-  osti_worldRollout(m, L, worlds + (size_t)i * L->stride, lanes + (size_t)l * L->lane_stride, i,
-                    set, 0, T, ctrl_seq, qpos_out, qvel_out, NULL);
+                              const ostNum* ctrl_seq, ostNum* qpos_out, ostNum* qvel_out,
+                              char* kept, int every) {
+  char* world = worlds + (size_t)i * L->stride;
+  char* lane = lanes + (size_t)l * L->lane_stride;
+  int seg = kept && every > 0 ? every : T;
+  for (int k = 0; k * seg < T; k++) {
+    if (kept) {
+      ostu_copyWords(kept + ((size_t)k * L->nworld + i) * L->stride, world, L->stride);
+    }
+    int t1 = (k + 1) * seg < T ? (k + 1) * seg : T;
+    osti_worldRollout(m, L, world, lane, i, set, k * seg, t1, ctrl_seq, qpos_out, qvel_out, NULL);
+  }
 }
 
 #ifdef __cplusplus

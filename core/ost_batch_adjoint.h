@@ -6,8 +6,10 @@
 //                          keeping a checkpoint at the start of every segment of A->seg steps
 //   2 osti_adjointReplay   replay segment k from its checkpoint, recording each committed
 //                          substep (state, controls, rows, multipliers)
-//   3 ostx_adjointRecord   (ost_adjoint_jacobian.h, dual build) the implicit function theorem
-//                          on record j from the end of the segment
+//   3 on record j from the end of the segment: ostx_recordStructure and ostx_recordColumns
+//                          (ost_adjoint_jacobian.h, dual build; the columns may be spread
+//                          over A->njac threads) give the step's exact Jacobian, and
+//                          osti_recordSolve the implicit function theorem
 //   4 osti_adjointFinish   the cotangents of the start state; NaN for a failed world
 // Phase 2 and 3 run for k = nseg - 1 .. 0. The replay takes the forward pass's exact steps (same
 // warm start, splits and bits), so the gradient is that of the rollout the user saw, with
@@ -30,8 +32,9 @@ extern "C" {
 #endif
 
 // phase 1: replay world i from its start slice in lane l up to the last segment's start,
-// checkpointing each segment's start (the last segment is first stepped by its phase 2); the
-// running cotangent starts at time T
+// checkpointing each segment's start (the last segment is first stepped by its phase 2); with
+// kept checkpoints (the rollout's, osti_batchRollout; A->nckpt = 0) there is nothing to replay.
+// The running cotangent starts at time T.
 OST_HD void osti_adjointForward(const ostModel* m, const ostBatchLayout* L,
                                 const ostAdjointLayout* A, const char* start, char* lanes, int l,
                                 int i, const ostStepSettings* set, int T, const ostNum* ctrl_seq,
@@ -39,13 +42,15 @@ OST_HD void osti_adjointForward(const ostModel* m, const ostBatchLayout* L,
   ostAdjointLane al;
   ostu_adjointLane(&al, A, lanes, l);
   size_t ws = A->world_stride;
-  for (size_t b = 0; b < ws; b++) al.ckpt[b] = start[b];
-  for (int k = 0; k + 1 < A->nseg; k++) {
+  if (A->nckpt > 0) {
+    ostu_copyWords(al.ckpt, start, ws);
+  }
+  for (int k = 0; k + 1 < A->nckpt; k++) {
     char* ck = al.ckpt + k * ws;
-    for (size_t b = 0; b < ws; b++) al.cur[b] = ck[b];
+    ostu_copyWords(al.cur, ck, ws);
     osti_worldRollout(m, L, al.cur, al.work, i, set, k * A->seg, (k + 1) * A->seg, ctrl_seq, NULL,
                       NULL, NULL);
-    for (size_t b = 0; b < ws; b++) ck[ws + b] = al.cur[b];
+    ostu_copyWords(ck + ws, al.cur, ws);
   }
   al.info[OST_ADJ_NREC] = 0;
   al.info[OST_ADJ_STEP] = T;
@@ -55,12 +60,14 @@ OST_HD void osti_adjointForward(const ostModel* m, const ostBatchLayout* L,
 }
 
 
-// phase 2: replay segment k of world i from its checkpoint, recording its committed substeps.
+// phase 2: replay segment k of world i from its checkpoint (the lane's, or kept[k nworld + i]
+// when the rollout kept them), recording its committed substeps.
 // A world whose rollout failed (failure bits are sticky, so the last segment, replayed first,
 // ends with them) fails with OST_STEP_NAN; more than A->rec_cap substeps with OST_STEP_OVERFLOW.
 OST_HD void osti_adjointReplay(const ostModel* m, const ostBatchLayout* L,
                                const ostAdjointLayout* A, char* lanes, int l, int i,
-                               const ostStepSettings* set, int T, int k, const ostNum* ctrl_seq) {
+                               const ostStepSettings* set, int T, int k, const ostNum* ctrl_seq,
+                               const char* kept) {
   ostAdjointLane al;
   ostu_adjointLane(&al, A, lanes, l);
   al.info[OST_ADJ_NREC] = 0;
@@ -68,7 +75,7 @@ OST_HD void osti_adjointReplay(const ostModel* m, const ostBatchLayout* L,
     return;
   }
   size_t ws = A->world_stride;
-  for (size_t b = 0; b < ws; b++) al.cur[b] = al.ckpt[k * ws + b];
+  ostu_copyWords(al.cur, kept ? kept + ((size_t)k * L->nworld + i) * ws : al.ckpt + k * ws, ws);
   ostRecordSink sink = {al.rec, A->s, A->nrow_max, A->rec_cap, 0, 0};
   int t1 = (k + 1) * A->seg < T ? (k + 1) * A->seg : T;
   osti_worldRollout(m, L, al.cur, al.work, i, set, k * A->seg, t1, ctrl_seq, NULL, NULL, &sink);
@@ -83,6 +90,32 @@ OST_HD void osti_adjointReplay(const ostModel* m, const ostBatchLayout* L,
     return;
   }
   al.info[OST_ADJ_NREC] = sink.n;
+}
+
+
+// phase 3c: the implicit function theorem on the record whose Jacobian phases 3a and 3b left in
+// lane l's G: g, the cotangent of its (q+, u+), becomes that of its (q-, u-), and its controls'
+// cotangent accumulates into gctrl ((T x nworld x nu), or NULL); OST_STEP_NAN if singular
+OST_HD void osti_recordSolve(const ostAdjointLayout* A, char* lanes, int l, int i, int nworld,
+                             int j, double* gctrl) {
+  ostAdjointLane al;
+  ostu_adjointLane(&al, A, lanes, l);
+  int ny = al.info[OST_ADJ_NY], nv = A->s.nv, nu = A->s.nu;
+  if (ny == 0 || al.info[OST_ADJ_FAILED]) {
+    return;
+  }
+  ostStepRec r;
+  ostu_stepRecView(&r, al.rec + (size_t)(al.info[OST_ADJ_NREC] - 1 - j) * A->rec_size, A->s,
+                   A->nrow_max);
+  int ncol = ny + 2 * nv + nu;
+  if (osti_adjointSolve(al.G, ny, nv, ncol, al.K, al.piv, al.w, al.g, al.g + nv, al.gxi)) {
+    al.info[OST_ADJ_FAILED] = OST_STEP_NAN;  // singular Jacobian
+    return;
+  }
+  for (int k = 0; k < 2 * nv; k++) al.g[k] = al.gxi[k];
+  for (int a = 0; gctrl && a < nu; a++) {
+    gctrl[((size_t)*r.step * nworld + i) * nu + a] += al.gxi[2 * nv + a];
+  }
 }
 
 

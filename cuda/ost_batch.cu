@@ -21,13 +21,13 @@ static int blocks(int n) {
 
 __global__ void ost_batchRollout_kernel(ostModel m, ostBatchLayout L, char* worlds, char* lanes,
                                         ostStepSettings set, int nstep, const ostNum* ctrl,
-                                        ostNum* qpos, ostNum* qvel) {
+                                        ostNum* qpos, ostNum* qvel, char* kept, int every) {
   int l = blockIdx.x * blockDim.x + threadIdx.x;
   if (l >= L.nlane) {
     return;  // guard first
   }
   for (int i = l; i < L.nworld; i += L.nlane) {
-    osti_batchRollout(&m, &L, worlds, lanes, i, l, &set, nstep, ctrl, qpos, qvel);
+    osti_batchRollout(&m, &L, worlds, lanes, i, l, &set, nstep, ctrl, qpos, qvel, kept, every);
   }
 }
 
@@ -47,12 +47,12 @@ __global__ void ost_adjointForward_kernel(ostModel m, ostBatchLayout L, ostAdjoi
 
 __global__ void ost_adjointReplay_kernel(ostModel m, ostBatchLayout L, ostAdjointLayout A,
                                          char* lanes, int w0, ostStepSettings set, int T, int k,
-                                         const ostNum* ctrl) {
+                                         const ostNum* ctrl, const char* kept) {
   int l = blockIdx.x * blockDim.x + threadIdx.x, i = w0 + l;
   if (l >= A.nlane || i >= L.nworld) {
     return;
   }
-  osti_adjointReplay(&m, &L, &A, lanes, l, i, &set, T, k, ctrl);
+  osti_adjointReplay(&m, &L, &A, lanes, l, i, &set, T, k, ctrl, kept);
 }
 
 
@@ -67,6 +67,16 @@ __global__ void ost_adjointFinish_kernel(ostBatchLayout L, ostAdjointLayout A, c
   ostBatchView v;
   ostu_batchView(&v, &L, worlds + (size_t)i * L.stride);
   osti_adjointFinish(&A, lanes, l, i, L.nworld, T, gq, gu, gctrl, gq0, gu0, v.status);
+}
+
+
+__global__ void ost_recordSolve_kernel(ostAdjointLayout A, char* lanes, int w0, int nworld,
+                                       int j, double* gctrl) {
+  int l = blockIdx.x * blockDim.x + threadIdx.x, i = w0 + l;
+  if (l >= A.nlane || i >= nworld) {
+    return;
+  }
+  osti_recordSolve(&A, lanes, l, i, nworld, j, gctrl);
 }
 
 
@@ -163,7 +173,7 @@ extern "C" int ost_batchCopy_gpu(void* dst_dev, const void* src_dev, size_t byte
 extern "C" int ost_batchRollout_gpu(const ostModel* m_dev, const ostBatchLayout* L,
                                     char* worlds_dev, char* lanes_dev, const ostStepSettings* set,
                                     int nstep, const ostNum* ctrl_dev, ostNum* qpos, ostNum* qvel,
-                                    char* err, int err_sz) {
+                                    char* kept_dev, int every, char* err, int err_sz) {
   size_t nw = (size_t)L->nworld, T = (size_t)nstep;
   ostNum *qpos_dev = NULL, *qvel_dev = NULL;
   int bad = 0;
@@ -176,7 +186,7 @@ extern "C" int ost_batchRollout_gpu(const ostModel* m_dev, const ostBatchLayout*
   if (!bad) {
     ost_batchRollout_kernel<<<blocks(L->nlane), OST_BLOCK>>>(*m_dev, *L, worlds_dev, lanes_dev,
                                                              *set, nstep, ctrl_dev, qpos_dev,
-                                                             qvel_dev);
+                                                             qvel_dev, kept_dev, every);
     bad = cudaGetLastError() != cudaSuccess || cudaDeviceSynchronize() != cudaSuccess;
   }
   if (!bad && qpos) {
@@ -211,9 +221,19 @@ extern "C" int ost_adjointForward_gpu(const ostModel* m_dev, const ostBatchLayou
 extern "C" int ost_adjointReplay_gpu(const ostModel* m_dev, const ostBatchLayout* L,
                                      const ostAdjointLayout* A, char* lanes_dev, int w0,
                                      const ostStepSettings* set, int T, int k,
-                                     const ostNum* ctrl_dev, char* err, int err_sz) {
+                                     const ostNum* ctrl_dev, const char* kept_dev, char* err,
+                                     int err_sz) {
   ost_adjointReplay_kernel<<<blocks(A->nlane), OST_BLOCK>>>(*m_dev, *L, *A, lanes_dev, w0, *set,
-                                                            T, k, ctrl_dev);
+                                                            T, k, ctrl_dev, kept_dev);
+  OST_CUDA_CHECK(cudaGetLastError());
+  return 0;
+}
+
+
+extern "C" int ost_recordSolve_gpu(const ostAdjointLayout* A, char* lanes_dev, int w0,
+                                   int nworld, int j, double* gctrl_dev, char* err, int err_sz) {
+  ost_recordSolve_kernel<<<blocks(A->nlane), OST_BLOCK>>>(*A, lanes_dev, w0, nworld, j,
+                                                          gctrl_dev);
   OST_CUDA_CHECK(cudaGetLastError());
   return 0;
 }

@@ -57,11 +57,12 @@ int ost_batchField_gpu(const ostBatchLayout* L, char* worlds_dev, size_t offset,
                        void* dense, int to_device, char* err, int err_sz);
 
 // osti_batchRollout for every world, L->nlane GPU threads; ctrl_dev (device, or NULL), qpos,
-// qvel (host, or NULL) as ost_batchRollout
+// qvel (host, or NULL) as ost_batchRollout; kept_dev (device, or NULL) receives the checkpoints
+// every `every` steps
 int ost_batchRollout_gpu(const ostModel* m_dev, const ostBatchLayout* L, char* worlds_dev,
                          char* lanes_dev, const ostStepSettings* set, int nstep,
-                         const ostNum* ctrl_dev, ostNum* qpos, ostNum* qvel, char* err,
-                         int err_sz);
+                         const ostNum* ctrl_dev, ostNum* qpos, ostNum* qvel, char* kept_dev,
+                         int every, char* err, int err_sz);
 
 // the backward pass's phases 1, 2 and 4 (core/ost_batch_adjoint.h) for worlds [w0, w0 +
 // A->nlane), one GPU thread each; the last one waits for the device
@@ -72,7 +73,7 @@ int ost_adjointForward_gpu(const ostModel* m_dev, const ostBatchLayout* L,
 int ost_adjointReplay_gpu(const ostModel* m_dev, const ostBatchLayout* L,
                           const ostAdjointLayout* A, char* lanes_dev, int w0,
                           const ostStepSettings* set, int T, int k, const ostNum* ctrl_dev,
-                          char* err, int err_sz);
+                          const char* kept_dev, char* err, int err_sz);
 int ost_adjointFinish_gpu(const ostBatchLayout* L, const ostAdjointLayout* A, char* lanes_dev,
                           char* worlds_dev, int w0, int T, const double* gq_dev,
                           const double* gu_dev, double* gctrl_dev, double* gq0_dev,
@@ -82,11 +83,24 @@ int ost_adjointFinish_gpu(const ostBatchLayout* L, const ostAdjointLayout* A, ch
 // *dual_dev (the struct first, then its arrays)
 int ost_adjointModel_gpu(const void* model, void** dual_dev, char* err, int err_sz);
 
-// phase 3 (ostx_adjointRecord) for worlds [w0, w0 + A->nlane): record j from the end of each
-// lane's segment, on the dual model dual_dev
+// bytes of one dual work of the GPU's dual build (ostx_jacWorkSize with ostDual<OSTX_CHUNK>)
+size_t ost_adjointJacSize_gpu(const void* model, int nrow_max);
+
+// threads of the column kernel (phase 3b) the device holds at once: the size of its pool of
+// dual works (0 if the query fails)
+int ost_adjointColumnSlots_gpu(void);
+
+// phases 3a and 3b (ostx_recordStructure, then ostx_recordColumns over A->njac threads per lane,
+// in launches of at most pool_n threads, each with its dual work of pool_dev) for worlds
+// [w0, w0 + A->nlane): record j from the end of each world's segment
 int ost_adjointRecord_gpu(void* dual_dev, const ostAdjointLayout* A, char* lanes_dev, int w0,
                           int nworld, int j, const ostAdjointSettings* as, const double* gq_dev,
-                          const double* gu_dev, double* gctrl_dev, char* err, int err_sz);
+                          const double* gu_dev, char* pool_dev, int pool_n, char* err,
+                          int err_sz);
+
+// phase 3c (osti_recordSolve) for the same worlds and record
+int ost_recordSolve_gpu(const ostAdjointLayout* A, char* lanes_dev, int w0, int nworld, int j,
+                        double* gctrl_dev, char* err, int err_sz);
 
 // free and total device memory (bytes)
 int ost_batchMemInfo_gpu(size_t* free_bytes, size_t* total_bytes);

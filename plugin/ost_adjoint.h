@@ -36,11 +36,14 @@ int ostd_stepJacobian(void* work, const ostdStep* s, double* G, size_t G_cap, in
 // bytes of the dual work of one batch adjoint lane (ostAdjointLayout.jac_size)
 size_t ostd_jacWorkSize(const void* model, int nrow_max);
 
-// phase 3 of a batch world's backward pass (core/ost_adjoint_jacobian.h's ostx_adjointRecord)
-// on the dual model of a work from ostd_workCreate; many threads may share one work
-void ostd_adjointRecord(void* work, const ostAdjointLayout* A, char* lanes, int l, int i,
-                        int nworld, int j, const ostAdjointSettings* as, const double* gq,
-                        const double* gu, double* gctrl);
+// phases 3a and 3b of a batch world's backward pass (core/ost_adjoint_jacobian.h's
+// ostx_recordStructure, ostx_recordColumns) on the dual model of a work from ostd_workCreate;
+// many threads may share one work (ostd_recordColumns uses the lane's dual work: njac = 1)
+void ostd_recordStructure(void* work, const ostAdjointLayout* A, char* lanes, int l, int i,
+                          int nworld, int j, const ostAdjointSettings* as, const double* gq,
+                          const double* gu);
+void ostd_recordColumns(void* work, const ostAdjointLayout* A, char* lanes, int l, int t, int j,
+                        const ostAdjointSettings* as);
 
 #ifdef __cplusplus
 }

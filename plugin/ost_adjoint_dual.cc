@@ -76,8 +76,14 @@ extern "C" size_t ostd_jacWorkSize(const void* model, int nrow_max) {
 }
 
 
-extern "C" void ostd_adjointRecord(void* work, const ostAdjointLayout* A, char* lanes, int l,
-                                   int i, int nworld, int j, const ostAdjointSettings* as,
-                                   const double* gq, const double* gu, double* gctrl) {
-  ostx_adjointRecord(&((Work*)work)->m, A, lanes, l, i, nworld, j, as, gq, gu, gctrl);
+extern "C" void ostd_recordStructure(void* work, const ostAdjointLayout* A, char* lanes, int l,
+                                     int i, int nworld, int j, const ostAdjointSettings* as,
+                                     const double* gq, const double* gu) {
+  ostx_recordStructure(&((Work*)work)->m, A, lanes, l, i, nworld, j, as, gq, gu);
+}
+
+
+extern "C" void ostd_recordColumns(void* work, const ostAdjointLayout* A, char* lanes, int l,
+                                   int t, int j, const ostAdjointSettings* as) {
+  ostx_recordColumns(&((Work*)work)->m, A, lanes, l, t, j, as, NULL);
 }

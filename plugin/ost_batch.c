@@ -173,11 +173,13 @@ void ost_batchDelete(ostBatch* b) {
   ost_batchFreeMem(b, b->lanes);
   ost_batchFreeMem(b, b->rec_start);
   ost_batchFreeMem(b, b->rec_ctrl);
+  ost_batchFreeMem(b, b->kept);
   ost_batchFreeMem(b, b->adj_lanes);
 #ifdef OSTRICH_HAVE_CUDA
   if (b->cuda) {
     ost_batchFree_gpu(b->model_dev_block);
     ost_batchFree_gpu(b->adj_dev_block);
+    ost_batchFree_gpu(b->adj_pool);
   }
 #endif
   ostd_workFree(b->adj_work);
@@ -193,7 +195,7 @@ int ost_batchWorlds(const ostBatch* b) {
 
 
 size_t ost_batchBytes(const ostBatch* b) {
-  return b ? b->L.total + b->L.lane_total : 0;
+  return b ? b->L.total + b->L.lane_total + b->kept_bytes : 0;
 }
 
 
@@ -211,7 +213,7 @@ int ost_batchMemory(const ostBatch* b, size_t* used, size_t* total) {
     return OST_OK;
   }
 #endif
-  *used = b->L.total + b->L.lane_total + b->model_bytes + b->adj_bytes
+  *used = b->L.total + b->L.lane_total + b->model_bytes + b->adj_bytes + b->kept_bytes
           + (b->rec_start ? b->L.total : 0);
   *total = 0;
   return OST_OK;
@@ -280,6 +282,7 @@ int ost_batchSetState(ostBatch* b, const mjtNum* qpos, const mjtNum* qvel) {
   free(izero);
   b->fresh = !status;
   b->rec_nstep = 0;
+  b->kept_every = 0;
   return status;
 }
 
@@ -334,7 +337,8 @@ static void* cpuChunkRun(void* arg) {
   const cpuChunk* c = (const cpuChunk*)arg;
   for (int i = c->w0; i < c->w1; i++) {
     osti_batchRollout(&c->b->model, &c->b->L, c->b->worlds, c->b->lanes, i, c->lane, &c->b->set,
-                      c->nstep, c->ctrl, c->qpos, c->qvel);
+                      c->nstep, c->ctrl, c->qpos, c->qvel, c->b->rec_nstep ? c->b->kept : NULL,
+                      c->b->kept_every);
   }
   return NULL;
 }
@@ -353,20 +357,55 @@ void ost_batchRunChunks(ostBatch* b, void* (*fn)(void*), cpuChunk proto) {
 }
 
 
+// room for the checkpoints a rollout of nstep steps keeps (ost_batchKeepCheckpoints); a
+// larger allocation is reused
+static int keptMemory(ostBatch* b, int nstep) {
+  b->kept_every = 0;
+  if (b->keep_every <= 0) {
+    return OST_OK;
+  }
+  size_t bytes = (size_t)((nstep + b->keep_every - 1) / b->keep_every) * b->L.total;
+  if (b->kept_bytes < bytes) {
+    ost_batchFreeMem(b, b->kept);
+    b->kept = NULL;
+    b->kept_bytes = 0;
+    int bad = 0;
+#ifdef OSTRICH_HAVE_CUDA
+    if (b->cuda) {
+      bad = ost_batchAlloc_gpu((void**)&b->kept, bytes, b->err, sizeof(b->err));
+    }
+#endif
+    if (!b->cuda) {
+      b->kept = (char*)aligned_alloc(64, bytes);
+      bad = !b->kept;
+    }
+    if (bad) {
+      b->kept = NULL;
+      return OST_ERR_MEMORY;
+    }
+    b->kept_bytes = bytes;
+  }
+  b->kept_every = b->keep_every;
+  return OST_OK;
+}
+
+
 // keep what a backward pass replays: the worlds at the start of a rollout from a set state,
-// and its controls (a later rollout continues it: its record is dropped). ctrl is where the
-// rollout reads its controls (host; the device copy for cuda), NULL: the worlds' own.
+// and its controls (a later rollout continues it: its record is dropped), and room for its
+// checkpoints. ctrl is where the rollout reads its controls (host; the device copy for cuda),
+// NULL: the worlds' own.
 static int recordInputs(ostBatch* b, int nstep, const ostNum* ctrl) {
   size_t nctrl = (size_t)nstep * b->L.nworld * b->nu;
   int fresh = b->fresh;
   b->fresh = 0;
   b->rec_nstep = 0;
+  b->kept_every = 0;
   ost_batchFreeMem(b, b->rec_ctrl);
   b->rec_ctrl = NULL;
   if (!fresh) {
     return OST_OK;
   }
-  int bad = 0;
+  int bad = keptMemory(b, nstep);
   if (!b->rec_start) {
 #ifdef OSTRICH_HAVE_CUDA
     if (b->cuda) {
@@ -412,7 +451,8 @@ int ost_batchRollout(ostBatch* b, int nstep, const mjtNum* ctrl, mjtNum* qpos, m
   }
   b->err[0] = 0;
   if (recordInputs(b, nstep, ctrl)) {
-    return ost_batchFail(b, OST_ERR_MEMORY, "ost_batchRollout: out of memory");
+    return ost_batchFail(b, OST_ERR_MEMORY, "ost_batchRollout: out of memory for the record of "
+                         "the rollout (its start, controls and kept checkpoints)");
   }
 #ifdef OSTRICH_HAVE_CUDA
   if (b->cuda) {
@@ -423,7 +463,9 @@ int ost_batchRollout(ostBatch* b, int nstep, const mjtNum* ctrl, mjtNum* qpos, m
               && ost_batchUpload_gpu((void**)&ctrl_dev, ctrl, nctrl * sizeof(ostNum), b->err,
                                      sizeof(b->err));
     bad = bad || ost_batchRollout_gpu(&b->model_dev, &b->L, b->worlds, b->lanes, &b->set, nstep,
-                                      ctrl ? ctrl_dev : NULL, qpos, qvel, b->err, sizeof(b->err));
+                                      ctrl ? ctrl_dev : NULL, qpos, qvel,
+                                      b->rec_nstep ? b->kept : NULL, b->kept_every, b->err,
+                                      sizeof(b->err));
     if (ctrl_dev != b->rec_ctrl) {
       ost_batchFree_gpu(ctrl_dev);
     }
@@ -431,6 +473,14 @@ int ost_batchRollout(ostBatch* b, int nstep, const mjtNum* ctrl, mjtNum* qpos, m
   }
 #endif
   ost_batchRunChunks(b, cpuChunkRun, (cpuChunk){.b = b, .nstep = nstep, .ctrl = ctrl, .qpos = qpos, .qvel = qvel});
+  return OST_OK;
+}
+
+
+int ost_batchKeepCheckpoints(ostBatch* b, int every) {
+  if (!b) return -1;
+  if (every < 0) return -2;
+  b->keep_every = every;
   return OST_OK;
 }
 

@@ -19,10 +19,12 @@ static void* backChunkRun(void* arg) {
                         b->adj_lanes, c->lane, i, &b->set, T, b->rec_ctrl, c->gq, c->gu);
     for (int k = A->nseg - 1; k >= 0; k--) {
       osti_adjointReplay(&b->model, &b->L, A, b->adj_lanes, c->lane, i, &b->set, T, k,
-                         b->rec_ctrl);
+                         b->rec_ctrl, A->nckpt ? NULL : b->kept);
       for (int j = 0; j < A->rec_cap; j++) {
-        ostd_adjointRecord(b->adj_work, A, b->adj_lanes, c->lane, i, nw, j, c->as, c->gq, c->gu,
-                           c->gctrl);
+        ostd_recordStructure(b->adj_work, A, b->adj_lanes, c->lane, i, nw, j, c->as, c->gq,
+                             c->gu);
+        ostd_recordColumns(b->adj_work, A, b->adj_lanes, c->lane, 0, j, c->as);
+        osti_recordSolve(A, b->adj_lanes, c->lane, i, nw, j, c->gctrl);
       }
     }
     ostBatchView v;
@@ -34,6 +36,28 @@ static void* backChunkRun(void* arg) {
 }
 
 
+#ifdef OSTRICH_HAVE_CUDA
+// the pool of dual works of the GPU's column threads (phase 3b), one per thread the device
+// holds at once, each jac_size bytes; kept across calls
+static int columnPool(ostBatch* b, size_t jac_size) {
+  int n = ost_adjointColumnSlots_gpu();
+  if (b->adj_pool && b->adj_pool_n >= n) {
+    return OST_OK;
+  }
+  ost_batchFree_gpu(b->adj_pool);
+  b->adj_pool = NULL;
+  b->adj_pool_n = 0;
+  if (n < OST_CUDA_JAC_THREADS
+      || ost_batchAlloc_gpu((void**)&b->adj_pool, (size_t)n * jac_size, b->err, sizeof(b->err))) {
+    b->adj_pool = NULL;
+    return OST_ERR_MEMORY;
+  }
+  b->adj_pool_n = n;
+  return OST_OK;
+}
+#endif
+
+
 // the adjoint lanes' layout for segments of `seg` steps and nlane lanes; (re)allocates them
 static int adjointLanes(ostBatch* b, int seg, int nlane_max, ostAdjointLayout* A) {
   int T = b->rec_nstep;
@@ -42,10 +66,24 @@ static int adjointLanes(ostBatch* b, int seg, int nlane_max, ostAdjointLayout* A
   A->nrow_max = b->L.nrow_max;
   A->seg = seg;
   A->nseg = (T + seg - 1) / seg;
+  // the rollout's own checkpoints, if it kept them at this interval: no replay to make them
+  int kept = b->kept_every > 0 && (b->kept_every < T ? b->kept_every : T) == seg;
+  A->nckpt = kept ? 0 : A->nseg;
   A->rec_cap = OST_RECORDS_PER_STEP * seg + OST_RECORDS_EXTRA;
   A->world_stride = b->L.stride;
   A->lane_stride = b->L.lane_stride;
   A->jac_size = ostd_jacWorkSize(&b->model, b->L.nrow_max);
+  A->njac = 1;
+#ifdef OSTRICH_HAVE_CUDA
+  if (b->cuda) {
+    A->jac_size = ost_adjointJacSize_gpu(&b->model, b->L.nrow_max);
+    A->njac = OST_CUDA_JAC_THREADS;
+    if (columnPool(b, A->jac_size)) {
+      return ost_batchFail(b, OST_ERR_MEMORY, "ost_batchBackward: cannot allocate the dual "
+                           "works of the Jacobian's column threads");
+    }
+  }
+#endif
   ostu_adjointLayout(A, 1);
   int nlane = nlane_max < b->L.nworld ? nlane_max : b->L.nworld;
 #ifdef OSTRICH_HAVE_CUDA
@@ -115,10 +153,11 @@ static int backwardCuda(ostBatch* b, const ostAdjointLayout* A, const ostAdjoint
                                  &b->set, T, b->rec_ctrl, gq_d, gu_d, e, es);
     for (int k = A->nseg - 1; !bad && k >= 0; k--) {
       bad = ost_adjointReplay_gpu(&b->model_dev, &b->L, A, b->adj_lanes, w0, &b->set, T, k,
-                                  b->rec_ctrl, e, es);
+                                  b->rec_ctrl, A->nckpt ? NULL : b->kept, e, es);
       for (int j = 0; !bad && j < A->rec_cap; j++) {
         bad = ost_adjointRecord_gpu(b->adj_dev_block, A, b->adj_lanes, w0, nw, j, as, gq_d, gu_d,
-                                    gctrl_d, e, es);
+                                    b->adj_pool, b->adj_pool_n, e, es)
+              || ost_recordSolve_gpu(A, b->adj_lanes, w0, nw, j, gctrl_d, e, es);
       }
     }
     bad = bad || ost_adjointFinish_gpu(&b->L, A, b->adj_lanes, b->worlds, w0, T, gq_d, gu_d,

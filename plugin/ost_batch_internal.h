@@ -22,6 +22,11 @@
 // most lanes of the cuda batch's backward pass (fewer if the GPU's memory is short)
 #define OST_CUDA_ADJOINT_LANES 16384
 
+// GPU threads that share one record's Jacobian columns (phase 3b), each in a dual work of the
+// pool (as many works as the device holds threads of that kernel): a record of the box scene
+// has about 45 columns, 12 chunks of 4. On the CPU a world's records stay on its thread.
+#define OST_CUDA_JAC_THREADS 12
+
 // substeps a backward segment of S steps may record: 2 S + 8 (a step split once takes 2, a
 // step split three levels deep 8)
 #define OST_RECORDS_PER_STEP 2
@@ -46,11 +51,17 @@ struct ostBatch_ {
   int             rec_nstep;      // steps of the last rollout from a set state (0: none)
   char*           rec_start;      // its start: a copy of the worlds (host or device)
   ostNum*         rec_ctrl;       // its controls, rec_nstep x nworld x nu (NULL: the worlds')
+  int             keep_every;     // rollouts from a set state keep checkpoints this often (0: no)
+  int             kept_every;     // the recorded rollout's interval (0: it kept none)
+  char*           kept;           // its checkpoints: nseg x L.total bytes (host or device)
+  size_t          kept_bytes;     // their allocation
   void*           adj_work;       // dual model for the backward pass (ostd_workCreate; cuda:
                                   // its device copy)
   void*           adj_dev_block;  // cuda: the device dual model's block
   char*           adj_lanes;      // adjoint lanes (host or device)
   size_t          adj_bytes;      // their size
+  char*           adj_pool;       // cuda: dual works of the column threads
+  int             adj_pool_n;     // their count
   char            err[1000];      // last failure
 };
 

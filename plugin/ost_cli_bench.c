@@ -4,8 +4,8 @@
 // random start (synth's distribution) and follows synth's initial wheel command (1.5 rad/s,
 // ramping to 0 over the last second); one untimed rollout warms up, then --repeat timed
 // rollouts of the whole horizon, and --repeat timed optimization iterations (the rollout and
-// its backward pass, ost_batchBackward with segment checkpoints every --checkpoint steps, for
-// a loss of every world's final position). Reports the median rollout time, world-rollouts and
+// its backward pass, ost_batchBackward with segment checkpoints every --checkpoint steps, kept
+// by the rollout unless --replay-checkpoints, for a loss of every world's final position). Reports the median rollout time, world-rollouts and
 // world-steps per second, the median iteration time and world-iterations per second, the
 // device's memory in use after the backward pass, and each device's ratios to the CPU batch
 // with all cores in the same run.
@@ -35,6 +35,7 @@ typedef struct benchArgs_ {       // arguments of `ostrich bench scale`
   long        steps;              // steps per rollout
   long        cpu_max;            // largest world count run on the CPU
   long        checkpoint;         // backward segment length (steps)
+  int         replay;             // 1: the backward pass replays to make its checkpoints
   int         help;
 } benchArgs;
 
@@ -53,6 +54,9 @@ static const cliOption kBenchOptions[] = {
    "largest world count run on the CPU (default 8192)"},
   {"--checkpoint", CLI_ARG_COUNT, offsetof(benchArgs, checkpoint), "S",
    "backward pass: checkpoint every S steps (default 10)"},
+  {"--replay-checkpoints", CLI_ARG_FLAG, offsetof(benchArgs, replay), "",
+   "the backward pass replays the rollout to make its checkpoints\n"
+   "(default: the rollout keeps them, T/S world copies more memory)"},
   {"--csv", CLI_ARG_STRING, offsetof(benchArgs, csv), "FILE.csv", "write the table as CSV"},
   {"--plot", CLI_ARG_STRING, offsetof(benchArgs, plot), "FILE.png",
    "plot world-steps/s against worlds (gnuplot)"},
@@ -149,6 +153,7 @@ static int benchPoint(const mjModel* m, const char* device, int nworld, const be
     gq[((size_t)T * nworld + w) * m->nv] = 1;
   }
   double* iters = (double*)malloc(sizeof(double) * a->repeat);
+  bad = bad || ost_batchKeepCheckpoints(b, a->replay ? 0 : (int)a->checkpoint);
   for (int r = 0; r < a->repeat && !bad; r++) {
     double t0 = cli_now();
     bad = ost_batchSetState(b, q0, NULL) || ost_batchRollout(b, T, ctrl, NULL, NULL)
@@ -209,7 +214,7 @@ static int benchPlot(const char* png, const char* csv) {
 
 static int benchScale(int argc, char** argv) {
   benchArgs a = {"both", "1,8,64,512,4096,8192,32768", "mjcf_models/robot_box.xml", NULL, NULL,
-                 3, 60, 8192, 10, 0};
+                 3, 60, 8192, 10, 0, 0};
   if (cli_parseArgs("bench scale", argc, argv, kBenchOptions, kBenchNumOptions, &a, NULL,
                     &a.help)) {
     return CLI_USAGE;

@@ -286,15 +286,22 @@ int ost_batchStep(ostBatch* b);
 // nv) receive the state after each step (NULL: not kept).
 int ost_batchRollout(ostBatch* b, int nstep, const mjtNum* ctrl, mjtNum* qpos, mjtNum* qvel);
 
+// Let the following rollouts from a set state keep every world's state every `every` steps (0,
+// the default: keep none), so that ost_batchBackward with checkpoint `every` starts from them
+// instead of replaying the rollout to make them: one replay fewer per backward pass, for
+// ceil(nstep / every) x ost_batchBytes' world memory more (host for cpu, device for cuda).
+int ost_batchKeepCheckpoints(ostBatch* b, int every);
+
 // Gradients of a loss of the last rollout, which must have started right after
 // ost_batchSetState (cpu and cuda alike, same bits). gq, gu ((nstep + 1) x nworld x nv,
 // step-major; NULL = zero): the loss's cotangents with respect to each world's state after each
 // step, row 0 the start (qpos as a tangent vector, see ost_tapeBackward). Returns gctrl
 // (nstep x nworld x nu) and gq0, gu0 (nworld x nv); any may be NULL. Each world's rollout is
-// replayed from its start with a checkpoint every `checkpoint` steps (0 = one segment), then
-// segment by segment backward: the segment is replayed once more recording its substeps, and
-// each substep's exact Jacobian (dual numbers) gives the implicit-function-theorem update
-// (core/ost_batch_adjoint.h). Memory per lane: the checkpoints and one segment's records; a
+// replayed from its start with a checkpoint every `checkpoint` steps (0 = one segment; no replay
+// if the rollout kept them, ost_batchKeepCheckpoints), then segment by segment backward: the
+// segment is replayed once more recording its substeps, and each substep's exact Jacobian (dual
+// numbers; on cuda its columns spread over several threads) gives the implicit-function-theorem
+// update (core/ost_batch_adjoint.h). Memory per lane: the checkpoints and one segment's records; a
 // segment of S steps records at most 2 S + 8 substeps. A world whose rollout failed, whose
 // segment records more substeps (OST_OVERFLOW) or whose Jacobian is singular (OST_NAN) gets
 // NaN gradients and that bit. go->truncate is honoured; go->params is refused (no parameter

@@ -3,13 +3,15 @@
 // its own perturbation of qpos0 and gets its own random controls each step; every 7th world
 // gets a NaN control at step T/3, and with --nconmax K a small contact capacity makes some
 // worlds overflow. Both devices run the same rollout and its backward pass (random cotangents
-// at every step, segment checkpoints every S steps); it passes if every state agrees to 1e-9,
+// at every step, segment checkpoints every S steps; with --keep the device under test takes
+// them from its rollout, ost_batchKeepCheckpoints, while the CPU replays); it passes if every
+// state agrees to 1e-9,
 // every gradient (controls, start state) to 1e-7 (NaN where the other is NaN: the failed
 // worlds) and every world's outcome bits are equal. Prints one JSON line per model with the
 // times of both devices (world-steps per second forward, world-iterations per second forward
 // and backward).
 //   usage: test_batch_gpu MODEL.xml... [--worlds N] [--steps T] [--nconmax K] [--device D]
-//                                      [--checkpoint S]
+//                                      [--checkpoint S] [--keep]
 #define _POSIX_C_SOURCE 200809L
 
 #include <math.h>
@@ -43,7 +45,7 @@ typedef struct runOut_ {           // one device's rollout and gradients
 
 
 // run the batch on device forward and backward; returns 0 or -1
-static int run(const mjModel* m, const char* device, int nworld, int T, int checkpoint,
+static int run(const mjModel* m, const char* device, int nworld, int T, int checkpoint, int keep,
                const mjtNum* q0, const mjtNum* ctrl, const mjtNum* gq, const mjtNum* gu,
                runOut* o) {
   char err[1000];
@@ -53,7 +55,8 @@ static int run(const mjModel* m, const char* device, int nworld, int T, int chec
     return -1;
   }
   double t0 = now();
-  int rc = ost_batchSetState(b, q0, NULL) || ost_batchRollout(b, T, ctrl, o->qpos, o->qvel);
+  int rc = ost_batchKeepCheckpoints(b, keep ? checkpoint : 0) || ost_batchSetState(b, q0, NULL)
+           || ost_batchRollout(b, T, ctrl, o->qpos, o->qvel);
   double t1 = now();
   rc = rc || ost_batchBackward(b, NULL, checkpoint, gq, gu, o->gctrl, o->g0,
                                o->g0 + (size_t)nworld * m->nv);
@@ -100,7 +103,7 @@ static double gradDiff(const mjtNum* a, const mjtNum* b, size_t n) {
 }
 
 
-static int runModel(const char* path, int nworld, int T, int nconmax, int checkpoint,
+static int runModel(const char* path, int nworld, int T, int nconmax, int checkpoint, int keep,
                     const char* device) {
   char err[1000] = "";
   mjModel* m = mj_loadXML(path, NULL, err, sizeof(err));
@@ -152,8 +155,8 @@ static int runModel(const char* path, int nworld, int T, int nconmax, int checkp
   size_t nqs = (size_t)T * nworld * nq, nvs = (size_t)T * nworld * nv;
   size_t ncs = (size_t)T * nworld * nu, ng0 = 2 * (size_t)nworld * nv;
   runOut a = allocOut(nqs, nvs, ncs, ng0, nworld), c = allocOut(nqs, nvs, ncs, ng0, nworld);
-  int ok = !run(m, device, nworld, T, checkpoint, q0, ctrl, gq, gu, &a)
-           && !run(m, "cpu", nworld, T, checkpoint, q0, ctrl, gq, gu, &c);
+  int ok = !run(m, device, nworld, T, checkpoint, keep, q0, ctrl, gq, gu, &a)
+           && !run(m, "cpu", nworld, T, checkpoint, 0, q0, ctrl, gq, gu, &c);
   int nstatus = 0, nfail = 0, nnan = 0, nover = 0;
   double worst = 0, gworst = 0;
   for (size_t i = 0; ok && i < nqs; i++) worst = fmax(worst, fabs(a.qpos[i] - c.qpos[i]));
@@ -189,7 +192,7 @@ static int runModel(const char* path, int nworld, int T, int nconmax, int checkp
 
 
 int main(int argc, char** argv) {
-  int nworld = 256, T = 30, nconmax = 0, checkpoint = 10, status = 0, nmodel = 0;
+  int nworld = 256, T = 30, nconmax = 0, checkpoint = 10, keep = 0, status = 0, nmodel = 0;
   const char* device = "cuda";
   for (int i = 1; i < argc; i++) {
     if (i + 1 < argc && !strcmp(argv[i], "--worlds")) nworld = atoi(argv[++i]);
@@ -197,13 +200,14 @@ int main(int argc, char** argv) {
     else if (i + 1 < argc && !strcmp(argv[i], "--nconmax")) nconmax = atoi(argv[++i]);
     else if (i + 1 < argc && !strcmp(argv[i], "--device")) device = argv[++i];
     else if (i + 1 < argc && !strcmp(argv[i], "--checkpoint")) checkpoint = atoi(argv[++i]);
+    else if (!strcmp(argv[i], "--keep")) keep = 1;
   }
   for (int i = 1; i < argc; i++) {
     if (argv[i][0] == '-' && argv[i][1] == '-') {
-      i++;
+      i += strcmp(argv[i], "--keep") != 0;  // skip the option's value
       continue;
     }
-    status |= runModel(argv[i], nworld, T, nconmax, checkpoint, device);
+    status |= runModel(argv[i], nworld, T, nconmax, checkpoint, keep, device);
     nmodel++;
   }
   return nmodel ? status : 2;

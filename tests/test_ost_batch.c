@@ -324,11 +324,25 @@ START_TEST(test_batchBackwardEqualsTape) {
   char err[1000];
   ostBatch* b = ost_batchCreate(m, nw, "cpu:2", err, sizeof(err));
   ck_assert_msg(b != NULL, "%s", err);
-  const int checkpoints[3] = {0, 4, 7};
-  for (int c = 0; c < 3; c++) {
+  // checkpoint intervals, and the interval the rollout keeps (0: none; 4 with checkpoint 7:
+  // kept but not used; 100 >= T: the start only, one segment)
+  const int checkpoints[6] = {0, 4, 7, 4, 7, 0}, keep[6] = {0, 0, 0, 4, 4, 100};
+  mjtNum* gctrl4 = calloc(T * nw * nu, 8);
+  for (int c = 0; c < 6; c++) {
+    ck_assert_int_eq(ost_batchKeepCheckpoints(b, keep[c]), OST_OK);
     ck_assert_int_eq(ost_batchSetState(b, q0, NULL), OST_OK);
+    size_t bytes0 = ost_batchBytes(b);
     ck_assert_int_eq(ost_batchRollout(b, T, ctrl, NULL, NULL), OST_OK);
+    if (c == 3) {  // ceil(30 / 4) = 8 copies of the worlds, counted in the batch's memory
+      ck_assert_uint_gt(ost_batchBytes(b), bytes0);
+    }
     ck_assert_int_eq(ost_batchBackward(b, NULL, checkpoints[c], gq, gu, gctrl, gq0, gu0), OST_OK);
+    if (c == 1) {
+      memcpy(gctrl4, gctrl, T * nw * nu * sizeof(mjtNum));
+    }
+    if (c == 3) {  // the rollout's checkpoints are the replay's, bit for bit
+      ck_assert_int_eq(memcmp(gctrl4, gctrl, T * nw * nu * sizeof(mjtNum)), 0);
+    }
     double worst = 0, scale = 0;
     for (int i = 0; i < nw; i++) {
       for (int t = 0; t < T; t++) {
@@ -341,8 +355,8 @@ START_TEST(test_batchBackwardEqualsTape) {
       worst = fmax(worst, fmax(maxDiff(gq0 + i * nv, tq0 + i * nv, nv),
                                maxDiff(gu0 + i * nv, tu0 + i * nv, nv)));
     }
-    printf("batch backward (checkpoint %d) vs tape: max |diff| %.3g (largest gradient %.3g)\n",
-           checkpoints[c], worst, scale);
+    printf("batch backward (checkpoint %d, kept %d) vs tape: max |diff| %.3g (largest gradient "
+           "%.3g)\n", checkpoints[c], keep[c], worst, scale);
     ck_assert_double_le(worst, 1e-9 * scale);
   }
   int status[3];
@@ -351,7 +365,7 @@ START_TEST(test_batchBackwardEqualsTape) {
   ost_batchDelete(b);
   ost_tapeDelete(tape);
   ost_deleteData(d);
-  free(q0); free(ctrl); free(gq); free(gu); free(gctrl); free(gq0); free(gu0);
+  free(q0); free(ctrl); free(gq); free(gu); free(gctrl); free(gq0); free(gu0); free(gctrl4);
   free(tq); free(tu); free(tc); free(tq0); free(tu0);
   mj_deleteModel(m);
 }
