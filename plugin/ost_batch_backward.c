@@ -38,9 +38,11 @@ static void* backChunkRun(void* arg) {
 
 #ifdef OSTRICH_HAVE_CUDA
 // the pool of dual works of the GPU's column threads (phase 3b), one per thread the device
-// holds at once, each jac_size bytes; kept across calls
+// holds at once (fewer if the worlds need fewer), each jac_size bytes; kept across calls
 static int columnPool(ostBatch* b, size_t jac_size) {
   int n = ost_adjointColumnSlots_gpu();
+  long long need = (long long)b->L.nworld * OST_CUDA_JAC_THREADS;
+  n = need < n ? (int)need : n;
   if (b->adj_pool && b->adj_pool_n >= n) {
     return OST_OK;
   }
