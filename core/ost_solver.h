@@ -56,7 +56,10 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNu
 #define OST_KRYLOV 32
 
 // One world's arrays. The X-macro is the single description of the layout: it drives the size
-// of the allocation and the pointer setup (type, name, rows, cols).
+// of the allocation and the pointer setup (type, name, rows, cols). Arrays only the Newton
+// solver uses have OST_SOLVER_ROWS: a world that only evaluates the step's residual (the dual
+// evaluation of core/ost_adjoint_jacobian.h, solver = 0) leaves them out (NULL).
+#define OST_SOLVER_ROWS(n) ((solver) ? (n) : 0)
 #define OST_WORLD_ARRAYS(X)                                                                     \
   X(ostNum,        qvel_prev,     nv,       1)   /* u- at the start of the step           */   \
   X(ostNum,        qfrc_explicit, nv,       1)   /* f: explicit forces at (q-, u-)         */   \
@@ -68,24 +71,24 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNu
   X(ostNum,        Minv_rdyn,     nv,       1)   /* Mt^-1 r_dyn at the iterate             */   \
   X(ostNum,        tmp,           nv,       2)   /* scratch                                */   \
   X(ostRow,        rows,          nrow_max, 1)   /* rows of the current iterate            */   \
-  X(ostRow,        rows_prev,     nrow_max, 1)   /* rows of the previous iterate           */   \
+  X(ostRow, rows_prev, OST_SOLVER_ROWS(nrow_max), 1) /* rows of the previous iterate */            \
   X(ostNum,        J,             nrow_max, nv)  /* row Jacobians at q(u)                  */   \
-  X(ostNum,        J_prev,        nrow_max, nv)  /* row Jacobians of the previous iterate  */   \
+  X(ostNum, J_prev, OST_SOLVER_ROWS(nrow_max), nv) /* row Jacobians of the previous iterate */     \
   X(ostNum,        lambda,        nrow_max, 1)   /* multipliers (forces, N or N m)         */   \
-  X(ostNum,        lambda_prev,   nrow_max, 1)   /* multipliers of the previous iterate    */   \
-  X(ostNum,        dlambda,       nrow_max, 1)   /* Newton direction (contact frame)       */   \
-  X(ostNum,        lambda_trial,  nrow_max, 1)   /* trial multipliers on the previous rows */   \
-  X(ostNum,        lambda_best,   nrow_max, 1)   /* multipliers of the best iterate        */   \
-  X(ostRow,        rows_warm,     nrow_max, 1)   /* rows of the last step's result         */   \
-  X(ostNum,        lambda_warm,   nrow_max, 1)   /* multipliers of the last step's result  */   \
+  X(ostNum, lambda_prev, OST_SOLVER_ROWS(nrow_max), 1) /* multipliers of the previous iterate */   \
+  X(ostNum, dlambda, OST_SOLVER_ROWS(nrow_max), 1) /* Newton direction (contact frame) */          \
+  X(ostNum, lambda_trial, OST_SOLVER_ROWS(nrow_max), 1) /* trial multipliers on the previous rows */ \
+  X(ostNum, lambda_best, OST_SOLVER_ROWS(nrow_max), 1) /* multipliers of the best iterate */       \
+  X(ostRow, rows_warm, OST_SOLVER_ROWS(nrow_max), 1) /* rows of the last step's result */          \
+  X(ostNum, lambda_warm, OST_SOLVER_ROWS(nrow_max), 1) /* multipliers of the last step's result */ \
   X(ostNum,        W,             nrow_max, 1)   /* friction: slide flag, slip frame, W    */   \
   X(ostNum,        diag,          nrow_max, 1)   /* J_i Mt^-1 J_i'                         */   \
   X(ostNum,        Ju,            nrow_max, 1)   /* J_i u                                  */   \
   X(ostNum,        c,             nrow_max, 1)   /* compliance of the linearized row       */   \
   X(ostNum,        rho,           nrow_max, 1)   /* residual of the linearized row         */   \
-  X(ostNum,        pcr,           nrow_max, 6)   /* PCR vectors b r z p Az Ap              */   \
-  X(ostNum,        krylov,        nrow_max, OST_KRYLOV + 1) /* GMRES basis                  */   \
-  X(ostNum,        hess,          OST_KRYLOV + 1, OST_KRYLOV + 4) /* Hessenberg, rotations */   \
+  X(ostNum, pcr, OST_SOLVER_ROWS(nrow_max), 6) /* PCR vectors b r z p Az Ap */                     \
+  X(ostNum, krylov, OST_SOLVER_ROWS(nrow_max), OST_KRYLOV + 1) /* GMRES basis */                   \
+  X(ostNum, hess, OST_SOLVER_ROWS(OST_KRYLOV + 1), OST_KRYLOV + 4) /* Hessenberg, rotations */     \
   X(unsigned char, used,          nrow_max, 1)   /* matching scratch                       */
 
 typedef struct ostWorld_ {        // one world: sizes and pointers into one allocation
@@ -103,8 +106,9 @@ typedef struct ostWorld_ {        // one world: sizes and pointers into one allo
 } ostWorld;
 
 
-// bytes needed by one world, each array 64-byte aligned
-OST_HD size_t ostu_worldSize(int nv, int nrow_max) {
+// bytes needed by one world, each array 64-byte aligned (solver = 0: without the solver's
+// arrays)
+OST_HD size_t ostu_worldSizeFor(int nv, int nrow_max, int solver) {
   size_t sz = 0;
 #define X(type, name, r, c) sz += (((size_t)(r) * (c) * sizeof(type) + 63) / 64) * 64;
   OST_WORLD_ARRAYS(X)
@@ -113,8 +117,15 @@ OST_HD size_t ostu_worldSize(int nv, int nrow_max) {
 }
 
 
-// point a world's arrays into buf (64-byte aligned, ostu_worldSize bytes)
-OST_HD void ostu_worldInit(ostWorld* w, void* buf, int nv, int nrow_max, ostNum h) {
+OST_HD size_t ostu_worldSize(int nv, int nrow_max) {
+  return ostu_worldSizeFor(nv, nrow_max, 1);
+}
+
+
+// point a world's arrays into buf (64-byte aligned, ostu_worldSizeFor bytes); arrays left out
+// are NULL
+OST_HD void ostu_worldInitFor(ostWorld* w, void* buf, int nv, int nrow_max, ostNum h,
+                              int solver) {
   char* p = (char*)buf;
   w->nv = nv;
   w->nrow = 0;
@@ -125,10 +136,15 @@ OST_HD void ostu_worldInit(ostWorld* w, void* buf, int nv, int nrow_max, ostNum 
   w->h = h;
   w->lookahead = 0;
 #define X(type, name, r, c)                                         \
-  w->name = (type*)p;                                               \
+  w->name = (size_t)(r) * (size_t)(c) != 0 ? (type*)p : NULL;       \
   p += (((size_t)(r) * (c) * sizeof(type) + 63) / 64) * 64;
   OST_WORLD_ARRAYS(X)
 #undef X
+}
+
+
+OST_HD void ostu_worldInit(ostWorld* w, void* buf, int nv, int nrow_max, ostNum h) {
+  ostu_worldInitFor(w, buf, nv, nrow_max, h, 1);
 }
 
 
