@@ -165,6 +165,35 @@ void ost_batchFreeMem(const ostBatch* b, void* p) {
 }
 
 
+int ost_batchGrow(ostBatch* b, char** p, size_t* have, size_t bytes) {
+  if (*p && *have >= bytes) {
+    return OST_OK;
+  }
+  ost_batchFreeMem(b, *p);
+  *p = NULL;
+  *have = 0;
+  int bad = 0;
+#ifdef OSTRICH_HAVE_CUDA
+  if (b->cuda) {
+    bad = ost_batchAlloc_gpu((void**)p, bytes, b->err, sizeof(b->err));  // zeroed
+  }
+#endif
+  if (!b->cuda) {
+    *p = (char*)aligned_alloc(64, OST_ALIGN64(bytes));
+    bad = !*p;
+    if (!bad) {
+      memset(*p, 0, bytes);
+    }
+  }
+  if (bad) {
+    *p = NULL;
+    return OST_ERR_MEMORY;
+  }
+  *have = bytes;
+  return OST_OK;
+}
+
+
 void ost_batchDelete(ostBatch* b) {
   if (!b) {
     return;
@@ -365,25 +394,8 @@ static int keptMemory(ostBatch* b, int nstep) {
     return OST_OK;
   }
   size_t bytes = (size_t)((nstep + b->keep_every - 1) / b->keep_every) * b->L.total;
-  if (b->kept_bytes < bytes) {
-    ost_batchFreeMem(b, b->kept);
-    b->kept = NULL;
-    b->kept_bytes = 0;
-    int bad = 0;
-#ifdef OSTRICH_HAVE_CUDA
-    if (b->cuda) {
-      bad = ost_batchAlloc_gpu((void**)&b->kept, bytes, b->err, sizeof(b->err));
-    }
-#endif
-    if (!b->cuda) {
-      b->kept = (char*)aligned_alloc(64, bytes);
-      bad = !b->kept;
-    }
-    if (bad) {
-      b->kept = NULL;
-      return OST_ERR_MEMORY;
-    }
-    b->kept_bytes = bytes;
+  if (ost_batchGrow(b, &b->kept, &b->kept_bytes, bytes)) {
+    return OST_ERR_MEMORY;
   }
   b->kept_every = b->keep_every;
   return OST_OK;

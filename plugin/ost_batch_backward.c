@@ -43,18 +43,12 @@ static int columnPool(ostBatch* b, size_t jac_size) {
   int n = ost_adjointColumnSlots_gpu();
   long long need = (long long)b->L.nworld * OST_CUDA_JAC_THREADS;
   n = need < n ? (int)need : n;
-  if (b->adj_pool && b->adj_pool_n >= n) {
-    return OST_OK;
-  }
-  ost_batchFree_gpu(b->adj_pool);
-  b->adj_pool = NULL;
-  b->adj_pool_n = 0;
-  if (n < OST_CUDA_JAC_THREADS
-      || ost_batchAlloc_gpu((void**)&b->adj_pool, (size_t)n * jac_size, b->err, sizeof(b->err))) {
-    b->adj_pool = NULL;
+  size_t have = (size_t)b->adj_pool_n * jac_size;
+  if (n < OST_CUDA_JAC_THREADS || ost_batchGrow(b, &b->adj_pool, &have, (size_t)n * jac_size)) {
+    b->adj_pool_n = 0;
     return OST_ERR_MEMORY;
   }
-  b->adj_pool_n = n;
+  b->adj_pool_n = (int)(have / jac_size);
   return OST_OK;
 }
 #endif
@@ -104,30 +98,9 @@ static int adjointLanes(ostBatch* b, int seg, int nlane_max, ostAdjointLayout* A
   }
 #endif
   ostu_adjointLayout(A, nlane);
-  if (b->adj_lanes && b->adj_bytes >= A->total) {
-    return OST_OK;
-  }
-  ost_batchFreeMem(b, b->adj_lanes);
-  b->adj_lanes = NULL;
-  b->adj_bytes = 0;
-  int bad = 0;
-#ifdef OSTRICH_HAVE_CUDA
-  if (b->cuda) {
-    bad = ost_batchAlloc_gpu((void**)&b->adj_lanes, A->total, b->err, sizeof(b->err));
-  }
-#endif
-  if (!b->cuda) {
-    b->adj_lanes = (char*)aligned_alloc(64, A->total);
-    bad = !b->adj_lanes;
-    if (!bad) {
-      memset(b->adj_lanes, 0, A->total);
-    }
-  }
-  if (bad) {
-    b->adj_lanes = NULL;
+  if (ost_batchGrow(b, &b->adj_lanes, &b->adj_bytes, A->total)) {
     return ost_batchFail(b, OST_ERR_MEMORY, "ost_batchBackward: cannot allocate the adjoint lanes");
   }
-  b->adj_bytes = A->total;
   return OST_OK;
 }
 

@@ -91,6 +91,10 @@ int ost_batchFail(ostBatch* b, int status, const char* msg);
 // free host (cpu) or device (cuda) memory of the batch (NULL is ignored)
 void ost_batchFreeMem(const ostBatch* b, void* p);
 
+// make *p (host or device, as the batch) hold at least `bytes` zeroed bytes; a larger block is
+// kept as it is. *have: its size. Returns OST_OK or OST_ERR_MEMORY (then *p is NULL).
+int ost_batchGrow(ostBatch* b, char** p, size_t* have, size_t bytes);
+
 // fn on every world: nthread threads, contiguous chunks, thread t in lane t
 void ost_batchRunChunks(ostBatch* b, void* (*fn)(void*), cpuChunk proto);
 
