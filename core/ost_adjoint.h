@@ -227,11 +227,18 @@ OST_HD void ostu_adjointLane(ostAdjointLane* v, const ostAdjointLayout* A, char*
 }
 
 
+// record j from the end of lane al's segment
+OST_HD void ostu_recordAt(ostStepRec* r, const ostAdjointLayout* A, const ostAdjointLane* al,
+                          int j) {
+  ostu_stepRecView(r, al->rec + (size_t)(al->info[OST_ADJ_NREC] - 1 - j) * A->rec_size, A->s,
+                   A->nrow_max);
+}
+
+
 // record j from the end of lane al's segment as the step its Jacobian differentiates
 OST_HD void ostu_recordStep(ostdStep* st, ostStepRec* r, const ostAdjointLayout* A,
                             const ostAdjointLane* al, int j, const ostAdjointSettings* as) {
-  ostu_stepRecView(r, al->rec + (size_t)(al->info[OST_ADJ_NREC] - 1 - j) * A->rec_size, A->s,
-                   A->nrow_max);
+  ostu_recordAt(r, A, al, j);
   ostdStep s = {NULL, r->qpos_prev, r->qvel_prev, r->qvel, r->ctrl, NULL, NULL, r->rows,
                 r->lambda, *r->nrow, as->truncate, *r->h, as->lookahead, as->reg, as->creep,
                 as->fb_eps, 0, NULL, NULL, NULL};

@@ -105,8 +105,7 @@ OST_HD void osti_recordSolve(const ostAdjointLayout* A, char* lanes, int l, int 
     return;
   }
   ostStepRec r;
-  ostu_stepRecView(&r, al.rec + (size_t)(al.info[OST_ADJ_NREC] - 1 - j) * A->rec_size, A->s,
-                   A->nrow_max);
+  ostu_recordAt(&r, A, &al, j);
   int ncol = ny + 2 * nv + nu;
   if (osti_adjointSolve(al.G, ny, nv, ncol, al.K, al.piv, al.w, al.g, al.g + nv, al.gxi)) {
     al.info[OST_ADJ_FAILED] = OST_STEP_NAN;  // singular Jacobian
