@@ -28,14 +28,25 @@ typedef enum ostStatus_ {         // result of a host call
   OST_ERR_OVERFLOW  = 3,          // contact or constraint capacity exceeded (nconmax / njmax)
   OST_ERR_NUMERIC   = 4,          // mass matrix not positive definite or non-finite solve
   OST_ERR_VERSION   = 5,          // MuJoCo library is not version 2.2.2
-  OST_ERR_MEMORY    = 6           // allocation failed
+  OST_ERR_MEMORY    = 6,          // allocation failed
+
+  // warnings (>= OST_WARN_FIRST): the step WAS taken and the state advanced, as MuJoCo goes on
+  // after a warning; the answer is not to tolerance. Counted in ostTotals (ost_totals).
+  OST_WARN_FIRST          = 100,
+  OST_WARN_NOT_CONVERGED  = 100   // a committed (sub)step's best residual is above opt.tol
 } ostStatus;
+
+// 1 if status is a warning: the step was taken but is not to tolerance (see ostStats)
+#define OST_IS_WARNING(status) ((status) >= OST_WARN_FIRST)
 
 typedef enum ostStatusBit_ {      // per-step outcome bits (ostStats.status), same on CPU and GPU
   OST_NOT_CONVERGED = 1,          // best residual above tolerance after the Newton budget
   OST_OVERFLOW      = 2,          // a fixed capacity was exceeded
   OST_NAN           = 4,          // a non-finite value appeared
-  OST_CHOL_FAIL     = 8           // M + h*D was not positive definite
+  OST_CHOL_FAIL     = 8,          // M + h*D was not positive definite
+  OST_DEPENETRATED  = 16          // an initial violation (penetration, joint limit, equality)
+                                  // deeper than h * depenetration_speed was removed at that
+                                  // bounded speed only (ostStats.initial_violation)
 } ostStatusBit;
 
 
@@ -61,6 +72,9 @@ typedef struct ostOptions_ {
   double friction_creep;          // sticking friction's slip velocity per newton of friction
                                   // force (s/kg), the same at every h                  (0)
   int    geometry;                // geometry provider: OST_GEOMETRY_MUJOCO or _NATIVE (0)
+  double depenetration_speed;     // largest speed (m/s, rad/s for angular limits and
+                                  // equalities) at which a violation present at the start of
+                                  // a step is removed; 0 = at once                    (1)
 } ostOptions;
 
 typedef enum ostGeometry_ {       // geometry providers (option `geometry`)
@@ -131,9 +145,26 @@ typedef struct ostStats_ {
   double residual;                // merit residual of the returned iterate (m/s)
   double residual_first;          // merit residual of the first iterate (m/s)
   double max_penetration;         // deepest contact penetration at q+ (m)
+  double initial_violation;       // deepest violation at q- that was removed at the bounded
+                                  // depenetration speed (m or rad; 0 if none, OST_DEPENETRATED)
 } ostStats;
 
-// Advance one step with Ostrich (mj_step semantics, mjcb_control included).
+// Counts since d was first stepped by Ostrich (or ost_resetTotals), like mjData.warning[].number:
+// every step is counted, so a warning that recurs is never reported only once.
+typedef struct ostTotals_ {
+  long   steps;                   // ost_step2 calls
+  long   failed;                  // steps refused or failed (state left unchanged)
+  long   unconverged;             // steps that returned OST_WARN_NOT_CONVERGED
+  long   depenetrated;            // steps with OST_DEPENETRATED
+  long   overflow;                // steps with OST_OVERFLOW (capacity exceeded)
+  double worst_residual;          // largest committed residual (m/s)
+  double worst_initial_violation; // largest initial_violation (m or rad)
+  int    last_failure;            // ostStatus of the last failed step (0 if none)
+} ostTotals;
+
+// Advance one step with Ostrich (mj_step semantics, mjcb_control included). Returns OST_OK,
+// a warning (OST_IS_WARNING: the state advanced, but not to tolerance) or an error (the state
+// is left as it was).
 int ost_step(const mjModel* m, mjData* d);
 
 // First half: stock position and velocity stages at (q-, u-), then mjcb_control (= mj_step1).
@@ -144,6 +175,12 @@ int ost_step2(const mjModel* m, mjData* d);
 
 // Statistics of the last step on d (NULL if d was never stepped by Ostrich).
 const ostStats* ost_stats(const mjData* d);
+
+// Counts of d's steps and warnings (NULL if d was never stepped by Ostrich).
+const ostTotals* ost_totals(const mjData* d);
+
+// Zero d's counts.
+void ost_resetTotals(const mjData* d);
 
 // Message of the last failed call on d ("" if none).
 const char* ost_lastError(const mjData* d);
