@@ -36,6 +36,7 @@ extern "C" {
   X(int,    warm,        1)                           /* 1: rows_warm belong to this state  */ \
   X(int,    nrow_warm,   1)                           /* rows of the last result            */ \
   X(int,    substeps,    1)                           /* last step's substeps               */ \
+  X(int,    unconverged, 1)                           /* steps NOT_CONVERGED since set      */ \
   X(ostRow, rows_warm,   nrow_max)                    /* rows of the last result            */ \
   X(ostNum, lambda_warm, nrow_max)                    /* their multipliers                  */
 
@@ -172,6 +173,7 @@ OST_HD void osti_worldRollout(const ostModel* m, const ostBatchLayout* L, char* 
         if (!(*v.status & OST_STEP_FAILED)) {
           *v.time += set->h;
         }
+        *v.unconverged += (*v.status & OST_STEP_NOT_CONVERGED) != 0;
       }
     }
     if (qpos_out) {

@@ -63,7 +63,9 @@ OST_HD void osti_adjointForward(const ostModel* m, const ostBatchLayout* L,
 // phase 2: replay segment k of world i from its checkpoint (the lane's, or kept[k nworld + i]
 // when the rollout kept them), recording its committed substeps.
 // A world whose rollout failed (failure bits are sticky, so the last segment, replayed first,
-// ends with them) fails with OST_STEP_NAN; more than A->rec_cap substeps with OST_STEP_OVERFLOW.
+// ends with them) fails with OST_STEP_NAN; more than A->rec_cap substeps with OST_STEP_OVERFLOW;
+// a substep that did not converge or kept part of a violation with its bit (NOT_CONVERGED,
+// DEPENETRATED): the implicit function theorem needs a solved step.
 OST_HD void osti_adjointReplay(const ostModel* m, const ostBatchLayout* L,
                                const ostAdjointLayout* A, char* lanes, int l, int i,
                                const ostStepSettings* set, int T, int k, const ostNum* ctrl_seq,
@@ -76,7 +78,7 @@ OST_HD void osti_adjointReplay(const ostModel* m, const ostBatchLayout* L,
   }
   size_t ws = A->world_stride;
   ostu_copyWords(al.cur, kept ? kept + ((size_t)k * L->nworld + i) * ws : al.ckpt + k * ws, ws);
-  ostRecordSink sink = {al.rec, A->s, A->nrow_max, A->rec_cap, 0, 0};
+  ostRecordSink sink = {al.rec, A->s, A->nrow_max, A->rec_cap, 0, 0, 0};
   int t1 = (k + 1) * A->seg < T ? (k + 1) * A->seg : T;
   osti_worldRollout(m, L, al.cur, al.work, i, set, k * A->seg, t1, ctrl_seq, NULL, NULL, &sink);
   ostBatchView v;
@@ -87,6 +89,11 @@ OST_HD void osti_adjointReplay(const ostModel* m, const ostBatchLayout* L,
   }
   if (sink.n > A->rec_cap) {
     al.info[OST_ADJ_FAILED] = OST_STEP_OVERFLOW;
+    return;
+  }
+  if (sink.bits) {
+    // a substep that did not converge (or kept part of a violation) has no exact gradient
+    al.info[OST_ADJ_FAILED] = sink.bits;
     return;
   }
   al.info[OST_ADJ_NREC] = sink.n;

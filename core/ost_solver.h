@@ -50,6 +50,7 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNu
 #define OST_STEP_OVERFLOW      2  // contact or row capacity exceeded (the step was not taken)
 #define OST_STEP_NAN           4  // non-finite input or iterate (the step was not taken)
 #define OST_STEP_CHOL_FAIL     8  // M + h D not positive definite (the step was not taken)
+#define OST_STEP_DEPENETRATED 16  // a violation at q- was removed at the bounded speed only
 #define OST_STEP_FAILED (OST_STEP_OVERFLOW | OST_STEP_NAN | OST_STEP_CHOL_FAIL)
 
 // restart length of GMRES, the Krylov solver of Newton systems with sliding friction (below)
@@ -89,6 +90,7 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNu
   X(ostNum, pcr, OST_SOLVER_ROWS(nrow_max), 6) /* PCR vectors b r z p Az Ap */                     \
   X(ostNum, krylov, OST_SOLVER_ROWS(nrow_max), OST_KRYLOV + 1) /* GMRES basis */                   \
   X(ostNum, hess, OST_SOLVER_ROWS(OST_KRYLOV + 1), OST_KRYLOV + 4) /* Hessenberg, rotations */     \
+  X(ostRow, rows_relax, OST_SOLVER_ROWS(nrow_max), 1) /* violations kept this step (relax) */     \
   X(unsigned char, used,          nrow_max, 1)   /* matching scratch                       */
 
 typedef struct ostWorld_ {        // one world: sizes and pointers into one allocation
@@ -98,8 +100,11 @@ typedef struct ostWorld_ {        // one world: sizes and pointers into one allo
   int    nrow_prev;               // rows of the previous iterate
   int    nrow_warm;               // rows of the last step's result (0: none)
   int    prev_jac;                // 1 if J_prev holds the base iterate's Jacobians
+  int    nrow_relax;              // entries of rows_relax this step (0: none)
+  int    pad;
   ostNum h;                       // timestep (s)
   ostNum lookahead;               // contacts are reported up to this gap (m)
+  ostNum depen_speed;             // bounded removal speed of violations at q- (0: at once)
 #define X(type, name, r, c) type* name;
   OST_WORLD_ARRAYS(X)
 #undef X
@@ -133,8 +138,11 @@ OST_HD void ostu_worldInitFor(ostWorld* w, void* buf, int nv, int nrow_max, ostN
   w->nrow_prev = 0;
   w->nrow_warm = 0;
   w->prev_jac = 0;
+  w->nrow_relax = 0;
+  w->pad = 0;
   w->h = h;
   w->lookahead = 0;
+  w->depen_speed = 0;
 #define X(type, name, r, c)                                         \
   w->name = (size_t)(r) * (size_t)(c) != 0 ? (type*)p : NULL;       \
   p += (((size_t)(r) * (c) * sizeof(type) + 63) / 64) * 64;

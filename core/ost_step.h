@@ -35,17 +35,116 @@ typedef struct ostNewtonStats_ {  // one Newton loop's outcome
   int    pcr;                     // Krylov (PCR or GMRES) iterations, all iterates
   int    geometry_evals;          // trial geometries evaluated
   int    nonfinite;               // 1 if an iterate's merit was not finite
-  int    pad;
+  int    relaxed;                 // 1 if violations at q- were kept in part (osti_relaxStart)
   ostNum first;                   // merit of iterate 0 (m/s)
   ostNum best_merit;              // merit of the returned iterate (m/s)
+  ostNum initial_violation;       // deepest violation at q- when relaxed (m or rad), else 0
 } ostNewtonStats;
+
+
+//---------------------------------- Bounded removal of violations ---------------------------------
+// A violation present at the start of a step (a body placed into the floor, a joint started
+// beyond its limit, an equality not satisfied by the initial qpos) would be removed by one hard
+// step entirely, at speed depth / h: 5 cm in 2 ms is 25 m/s. Instead a step removes at most
+// h * depen_speed of it: a contact or limit row's gap gets the allowance a = depth - h v (its
+// NCP becomes gap + a >= 0), an equality row's target becomes the violation less h v. The
+// allowances are keyed like multipliers (type, objects; contacts per geom pair, the deepest of
+// the pair), measured at q- itself, and held fixed within the step, so Newton solves an
+// ordinary step with shifted gaps. A resting contact (depth ~1e-7 m) is never touched: the
+// check only runs when the first iterate suggests a violation at q- beyond h v / 2.
+
+// violation of row r at its configuration: contacts and limits their penetration (>= 0),
+// equalities |c(q)|; 0 for other rows
+OST_HD ostNum osti_rowViolation(const ostRow* r) {
+  if (r->type == OST_ROW_CONTACT || r->type == OST_ROW_LIMIT) {
+    return r->pos < 0 ? -r->pos : 0;
+  }
+  return r->type == OST_ROW_EQUALITY ? fabs(r->pos) : 0;
+}
+
+
+// index of the relax entry with r's type and objects, or -1
+OST_HD int osti_relaxFind(const ostWorld* w, const ostRow* r) {
+  for (int j = 0; j < w->nrow_relax; j++) {
+    const ostRow* e = w->rows_relax + j;
+    if (e->type == r->type && e->obj[0] == r->obj[0] && e->obj[1] == r->obj[1]) {
+      return j;
+    }
+  }
+  return -1;
+}
+
+
+// shift the freshly filled rows by the violations this step keeps: gap + a for contacts and
+// limits, c(q) - target for equalities
+OST_HD void osti_relaxRows(ostWorld* w) {
+  for (int i = 0; i < w->nrow; i++) {
+    ostRow* r = w->rows + i;
+    int j = osti_relaxFind(w, r);
+    if (j >= 0) {
+      r->pos += r->type == OST_ROW_EQUALITY ? -w->rows_relax[j].pos : w->rows_relax[j].pos;
+    }
+  }
+}
+
+
+// 1 if the evaluated first iterate (rows, J u) suggests a violation at q- beyond h v / 2:
+// gap(q-) ~ gap(q) - h J u
+OST_HD int osti_violationAhead(const ostWorld* w) {
+  ostNum half = 0.5 * w->h * w->depen_speed;
+  for (int i = 0; i < w->nrow; i++) {
+    ostRow r = w->rows[i];
+    ostNum at_q = osti_rowViolation(&r);
+    r.pos -= w->h * w->Ju[i];
+    if (at_q > half || osti_rowViolation(&r) > half) {
+      return 1;
+    }
+  }
+  return 0;
+}
+
+
+// the relax table from the rows at q- (just filled): each violation deeper than h v keeps
+// depth - h v; returns the deepest violation kept (0 if none)
+OST_HD ostNum osti_relaxTable(ostWorld* w) {
+  ostNum hv = w->h * w->depen_speed, deepest = 0;
+  w->nrow_relax = 0;
+  for (int i = 0; i < w->nrow; i++) {
+    const ostRow* r = w->rows + i;
+    ostNum v = osti_rowViolation(r), keep = v - hv;
+    if (keep <= 0) {
+      continue;
+    }
+    deepest = v > deepest ? v : deepest;
+    ostNum value = r->type == OST_ROW_EQUALITY ? (r->pos > 0 ? keep : -keep) : keep;
+    int j = osti_relaxFind(w, r);
+    if (j >= 0) {
+      // contacts of one geom pair share the pair's deepest allowance
+      if (value > w->rows_relax[j].pos) w->rows_relax[j].pos = value;
+    } else {
+      w->rows_relax[w->nrow_relax] = *r;
+      w->rows_relax[w->nrow_relax++].pos = value;
+    }
+  }
+  return deepest;
+}
+
+
+// an iterate's geometry: the provider's rows at q = q- (+) h u, shifted by the relax table
+OST_HD int osti_iterateGeometry(ostWorld* w, ostGeometryFn geom, void* ctx, const ostNum* u) {
+  int status = geom(ctx, u);
+  if (!status && w->nrow_relax > 0) {
+    osti_relaxRows(w);
+  }
+  return status;
+}
 
 
 // trial iterate base + alpha * direction: its geometry, carried multipliers and merit
 OST_HD int osti_trialIterate(ostWorld* w, const ostSolverOptions* so, ostNum alpha,
                              ostGeometryFn geom, void* ctx, ostNum* merit, ostNewtonStats* st) {
   osti_trial(w, alpha);
-  int status = geom(ctx, w->qvel);
+  int status = osti_iterateGeometry(w, geom, ctx, w->qvel);
   if (status) {
     return status;
   }
@@ -53,6 +152,22 @@ OST_HD int osti_trialIterate(ostWorld* w, const ostSolverOptions* so, ostNum alp
   *merit = sqrt(osti_evaluate(w, so));
   st->geometry_evals++;
   return 0;
+}
+
+
+// violations at q- itself (the geometry at u = 0) into the relax table, then the first iterate
+// again with its rows relaxed; costs two geometry evaluations, only in steps that need them
+OST_HD int osti_relaxStart(ostWorld* w, const ostSolverOptions* so, ostGeometryFn geom,
+                           void* ctx, ostNum* merit, ostNewtonStats* st) {
+  for (int j = 0; j < w->nv; j++) w->qvel_best[j] = 0;
+  int status = geom(ctx, w->qvel_best);
+  if (status) {
+    return status;
+  }
+  st->geometry_evals++;
+  st->initial_violation = osti_relaxTable(w);
+  st->relaxed = w->nrow_relax > 0;
+  return osti_trialIterate(w, so, 0, geom, ctx, merit, st);
 }
 
 
@@ -71,9 +186,15 @@ OST_HD int osti_newton(ostWorld* w, const ostSolverOptions* so, int linesearch, 
   st->pcr = 0;
   st->geometry_evals = 0;
   st->nonfinite = 0;
+  st->relaxed = 0;
+  st->initial_violation = 0;
+  w->nrow_relax = 0;
   for (k = 0; k <= so->newton_iter; k++) {
     if (k == 0) {
       status = osti_trialIterate(w, so, 0, geom, ctx, &merit, st);
+      if (!status && w->depen_speed > 0 && w->rows_relax && osti_violationAhead(w)) {
+        status = osti_relaxStart(w, so, geom, ctx, &merit, st);
+      }
       st->first = merit;
     } else {
       ostNum base = merit, alpha = 1, lowest = HUGE_VAL, alpha_lowest = 1, alpha_last = 1;
@@ -126,7 +247,7 @@ OST_HD int osti_newton(ostWorld* w, const ostSolverOptions* so, int linesearch, 
   // return the best iterate: re-evaluate its geometry (deterministic, same rows)
   if (best_k != k) {
     for (int j = 0; j < nv; j++) w->qvel[j] = w->qvel_best[j];
-    if ((status = geom(ctx, w->qvel))) {
+    if ((status = osti_iterateGeometry(w, geom, ctx, w->qvel))) {
       return status;
     }
     for (int i = 0; i < w->nrow; i++) w->lambda[i] = w->lambda_best[i];
@@ -149,6 +270,7 @@ typedef struct ostStepSettings_ { // what a native step needs besides the model 
   ostNum h;                       // step (s)
   ostNum split_tol;               // merit above which a step is redone as two halves (m/s)
   ostNum lookahead;               // contacts are reported up to this gap (m)
+  ostNum depen_speed;             // bounded removal speed of violations at q- (0: at once)
 } ostStepSettings;
 
 typedef struct ostNativeGeometry_ { // the context of osti_nativeGeometry
@@ -183,6 +305,7 @@ OST_HD int osti_substepNative(const ostModel* m, ostKin* k, ostWorld* w, ostNum*
   int nv = m->s.nv;
   w->h = h;
   w->lookahead = set->lookahead;
+  w->depen_speed = set->depen_speed;
   for (int i = 0; i < m->s.nq; i++) qpos_prev[i] = qpos[i];
   for (int j = 0; j < nv; j++) w->qvel_prev[j] = qvel[j];
   osti_nativeStart(m, k, w, qpos, qvel, ctrl, NULL, NULL, h);
@@ -233,6 +356,8 @@ typedef struct ostRecordSink_ {    // where osti_stepNative records committed su
   int      cap;                   // records base holds
   int      n;                     // substeps committed so far (> cap: some were not recorded)
   int      step;                  // the step being taken (stored with its records)
+  int      bits;                  // OST_STEP_NOT_CONVERGED / _DEPENETRATED of any committed
+                                  // substep: its gradient is not that of a solved step
 } ostRecordSink;
 
 
@@ -303,8 +428,12 @@ OST_HD int osti_stepNative(const ostModel* m, ostKin* k, ostWorld* w, ostNum* qp
     }
 
     // commit (q+, u+): qpos holds q- (+) h u+ from the best iterate's geometry
+    int sub = (st.best_merit > set->so.tol ? OST_STEP_NOT_CONVERGED : 0)
+              | (st.relaxed ? OST_STEP_DEPENETRATED : 0);
+    bits |= sub;
     if (sink) {
       osti_recordSubstep(sink, w, qpos_prev, ctrl, h);
+      sink->bits |= sub;
     }
     for (int j = 0; j < nv; j++) {
       qacc_warm[j] = (w->qvel[j] - w->qvel_prev[j]) / h;
@@ -315,9 +444,6 @@ OST_HD int osti_stepNative(const ostModel* m, ostKin* k, ostWorld* w, ostNum* qp
     (*substeps)++;
     if (st.best_merit > *worst) {
       *worst = st.best_merit;
-    }
-    if (st.best_merit > set->so.tol) {
-      bits |= OST_STEP_NOT_CONVERGED;
     }
   }
   if (bits & OST_STEP_FAILED) {

@@ -65,7 +65,8 @@ void ost_recordView(const mjModel* m, int nrow_max, void* rec, ostRecord* r) {
 
 
 // append the substep just committed by advance() (ost_step.c) to the context's records
-int ost_recordSubstep(ostContext* c, const mjModel* m, const mjData* d, mjtNum h) {
+int ost_recordSubstep(ostContext* c, const mjModel* m, const mjData* d, mjtNum h,
+                      mjtNum residual, int bits) {
   ostWorld* w = &c->world;
   size_t sz = ost_recordSize(m, w->nrow_max);
   if (c->rec_n == c->rec_cap) {
@@ -82,6 +83,9 @@ int ost_recordSubstep(ostContext* c, const mjModel* m, const mjData* d, mjtNum h
   r.head->h = h;
   r.head->nrow = w->nrow;
   r.head->step_end = 0;
+  r.head->bits = bits;
+  r.head->pad = 0;
+  r.head->residual = residual;
   memcpy(r.qpos_prev, c->qpos_prev, m->nq * sizeof(mjtNum));
   memcpy(r.qvel_prev, w->qvel_prev, m->nv * sizeof(mjtNum));
   memcpy(r.qvel, w->qvel, m->nv * sizeof(mjtNum));
@@ -239,12 +243,38 @@ static int recordBackward(ostContext* c, const mjModel* m, const ostRecord* r,
 }
 
 
+// OST_OK if every record [0, n) is a solved step, else OST_ERR_NOT_CONVERGED naming the first
+// that is not: the implicit function theorem differentiates F(x-, x+) = 0, which holds only where
+// Newton reached tol and no violation was kept (OST_DEPENETRATED shifts gaps by an allowance
+// measured at q-, which the derivative does not follow)
+static int recordsSolved(ostContext* c, const mjModel* m, void* recs, int n) {
+  size_t sz = ost_recordSize(m, c->world.nrow_max);
+  for (int k = 0; k < n; k++) {
+    ostRecord r;
+    ost_recordView(m, c->world.nrow_max, (char*)recs + k * sz, &r);
+    if (r.head->bits & OST_NOT_CONVERGED) {
+      return ost_fail(c, OST_ERR_NOT_CONVERGED, "substep %d did not converge (residual %.3g m/s "
+                      "> tol %.3g): no exact gradient; raise ostrich/newton_iter or lower h",
+                      k, r.head->residual, c->opt.tol);
+    }
+    if (r.head->bits & OST_DEPENETRATED) {
+      return ost_fail(c, OST_ERR_NOT_CONVERGED, "substep %d removed an initial violation at the "
+                      "bounded depenetration speed: no exact gradient", k);
+    }
+  }
+  return OST_OK;
+}
+
+
 // backward pass over records [0, n) of a block (one step's substeps, or a tape's segment):
 // gq, gu (nv) hold the cotangents at the end on entry and at the start on return
 int ost_recordsBackward(ostContext* c, const mjModel* m, void* recs, int n,
                         const ostGradOptions* go, mjtNum* gq, mjtNum* gu, mjtNum* gctrl,
                         mjtNum* gtheta) {
-  int status = adjointPrepare(c, m);
+  int status = recordsSolved(c, m, recs, n);
+  if (!status) {
+    status = adjointPrepare(c, m);
+  }
   size_t sz = ost_recordSize(m, c->world.nrow_max);
   for (int k = n - 1; k >= 0 && !status; k--) {
     ostRecord r;
@@ -298,7 +328,7 @@ int ost_adjoint(const mjModel* m, const mjData* d, const ostGradOptions* go, con
 static int recordsTransition(ostContext* c, const mjModel* m, void* recs, int n, mjtNum* A,
                              mjtNum* B) {
   int nv = m->nv, nu = m->nu, nx = 2 * nv, status;
-  if ((status = adjointPrepare(c, m))) {
+  if ((status = recordsSolved(c, m, recs, n)) || (status = adjointPrepare(c, m))) {
     return status;
   }
   size_t sz = ost_recordSize(m, c->world.nrow_max);
@@ -386,7 +416,7 @@ int ost_transition(const mjModel* m, mjData* d, mjtNum* A, mjtNum* B) {
   memcpy(save + 1 + m->nq + m->nv, d->qacc_warmstart, m->nv * sizeof(mjtNum));
   memcpy(save + nstate, d->ctrl, m->nu * sizeof(mjtNum));
   int status = ost_step(m, d);
-  if (!status) {
+  if (!status || OST_IS_WARNING(status)) {
     status = recordsTransition(c, m, c->rec_buf, c->rec_n, A, B);
   }
   d->time = save[0];

@@ -68,6 +68,7 @@ static int packBatchModel(ostBatch* b, const mjModel* m, char* err, int err_sz) 
   s->h = o.timestep > 0 ? o.timestep : m->opt.timestep;
   s->split_tol = o.split_tol;
   s->lookahead = o.margin;
+  s->depen_speed = o.depenetration_speed;
   b->opt = o;
   return OST_OK;
 }
@@ -304,7 +305,8 @@ int ost_batchSetState(ostBatch* b, const mjtNum* qpos, const mjtNum* qvel) {
              || field(b, L->status, sizeof(int), izero, 1)
              || field(b, L->warm, sizeof(int), izero, 1)
              || field(b, L->nrow_warm, sizeof(int), izero, 1)
-             || field(b, L->substeps, sizeof(int), izero, 1) ? OST_ERR_MEMORY : OST_OK;
+             || field(b, L->substeps, sizeof(int), izero, 1)
+             || field(b, L->unconverged, sizeof(int), izero, 1) ? OST_ERR_MEMORY : OST_OK;
   }
   free(q);
   free(zero);
@@ -338,6 +340,13 @@ int ost_batchStatus(const ostBatch* b, int* status) {
   if (!b) return -1;
   if (!status) return -2;
   return field((ostBatch*)b, b->L.status, sizeof(int), status, 0);
+}
+
+
+int ost_batchUnconverged(const ostBatch* b, int* count) {
+  if (!b) return -1;
+  if (!count) return -2;
+  return field((ostBatch*)b, b->L.unconverged, sizeof(int), count, 0);
 }
 
 

@@ -153,6 +153,20 @@ const ostStats* ost_stats(const mjData* d) {
 }
 
 
+const ostTotals* ost_totals(const mjData* d) {
+  ostContext* c = ost_findContext(d);
+  return c ? &c->totals : NULL;
+}
+
+
+void ost_resetTotals(const mjData* d) {
+  ostContext* c = ost_findContext(d);
+  if (c) {
+    memset(&c->totals, 0, sizeof(c->totals));
+  }
+}
+
+
 const char* ost_lastError(const mjData* d) {
   ostContext* c = ost_findContext(d);
   return c ? c->err : "";

@@ -17,6 +17,9 @@ typedef struct ostRecordHead_ {   // header of one recorded substep (ost_adjoint
   double h;                       // its step size (s)
   int    nrow;                    // rows of its solution
   int    step_end;                // 1 if it is the last substep of an ost_step
+  int    bits;                    // OST_NOT_CONVERGED / OST_DEPENETRATED of this substep
+  int    pad;
+  double residual;                // its best merit (m/s)
 } ostRecordHead;
 
 typedef struct ostRecord_ {       // pointers into one record block (ost_recordView)
@@ -39,6 +42,7 @@ typedef struct ostContext_ {
   ostOptions     opt;             // options in use
   int            opt_user;        // 1 if set by ost_setOptions (not re-read from the model)
   ostStats       stats;           // statistics of the last step
+  ostTotals      totals;          // counts of all steps (ost_totals)
   char           err[512];        // message of the last failure
   int*           servo;           // 1 if actuator i is an implicit servo row     (nu)
   mjtNum*        qpos_prev;       // q- of the current step                        (nq)
@@ -157,8 +161,10 @@ size_t ost_recordSize(const mjModel* m, int nrow_max);
 // pointers into the record block rec
 void ost_recordView(const mjModel* m, int nrow_max, void* rec, ostRecord* r);
 
-// append the substep advance() just committed to the context's records
-int ost_recordSubstep(ostContext* c, const mjModel* m, const mjData* d, mjtNum h);
+// append the substep advance() just committed to the context's records, with its best merit
+// and its OST_NOT_CONVERGED / OST_DEPENETRATED bits
+int ost_recordSubstep(ostContext* c, const mjModel* m, const mjData* d, mjtNum h,
+                      mjtNum residual, int bits);
 
 // backward pass over n records: (gq, gu) at their end in, at their start out; gctrl (nu) and
 // gtheta accumulate (either may be NULL)

@@ -8,7 +8,7 @@
 
 // every option: name, whether it is an integer, its field, its default
 #define OST_OPTIONS(X)                      \
-  X(newton_iter,   1, 16)                   \
+  X(newton_iter,   1, 64)                   \
   X(pcr_iter,      1, 32)                   \
   X(k_min,         1, 1)                    \
   X(linesearch,    1, 1)                    \
@@ -23,7 +23,8 @@
   X(eq_compliance, 0, 0)                   \
   X(regularization, 0, 1e-6)               \
   X(friction_creep, 0, 0)                  \
-  X(geometry,      1, 0)
+  X(geometry,      1, 0)                    \
+  X(depenetration_speed, 0, 1)
 
 void ost_defaultOptions(ostOptions* opt) {
 #define X(name, isint, def) opt->name = def;
@@ -54,6 +55,8 @@ static int validate(const ostOptions* o, char* err, int err_sz) {
     bad = "regularization must be in [0, 1]";
   } else if (!(o->friction_creep >= 0) || o->friction_creep > 1) {
     bad = "friction_creep must be in [0, 1] s/kg";
+  } else if (!(o->depenetration_speed >= 0)) {
+    bad = "depenetration_speed must be >= 0 m/s (0: remove violations at once)";
   }
   if (bad) {
     if (err) snprintf(err, err_sz, "ostrich option: %s", bad);

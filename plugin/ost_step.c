@@ -118,7 +118,7 @@ int ost_prepareContext(ostContext* c, const mjModel* m) {
   if (!c->opt_user && (status = ost_readOptions(m, &c->opt, c->err, sizeof(c->err)))) {
     return status;
   }
-  if ((status = ost_checkModel(m, c->err, sizeof(c->err)))) {
+  if ((status = ost_checkStep(m, &c->opt, c->err, sizeof(c->err)))) {
     return status;
   }
   for (int i = 0; i < m->nu; i++) {
@@ -138,19 +138,6 @@ int ost_prepareContext(ostContext* c, const mjModel* m) {
   if (ost_packCorePairs(mo, &c->corepairs, &c->corepairs_block)
       || ost_hfieldData(mo, &c->hfield_data, &c->hfield_n)) {
     return ost_fail(c, OST_ERR_MEMORY, "cannot allocate the core pair list");
-  }
-  for (int g = 0; g < m->ngeom && c->opt.margin > 0; g++) {
-    if (m->geom_type[g] == mjGEOM_HFIELD) {
-      return ost_fail(c, OST_ERR_MODEL, "height field '%s' with the mujoco geometry provider "
-                      "needs ostrich/margin 0: MuJoCo 2.2.2 reports height-field contact "
-                      "distances without the margin, which breaks the look-ahead (or use "
-                      "ostrich/geometry 1, native)", mj_id2name(m, mjOBJ_GEOM, g));
-    }
-  }
-  if (ost_terrainGeom(m) >= 0) {
-    return ost_fail(c, OST_ERR_MODEL, "geom '%s' is an ostrich/terrain mesh, which needs the "
-                    "native geometry provider (ostrich/geometry 1): MuJoCo 2.2.2 collides a "
-                    "mesh as its convex hull", mj_id2name(m, mjOBJ_GEOM, ost_terrainGeom(m)));
   }
   return OST_OK;
 }
@@ -234,8 +221,8 @@ static int geometryCallback(void* ctx, const ostNum* u) {
 
 // the non-smooth Newton loop (core/ost_step.h, paper section III-C) on the context's provider;
 // leaves the best iterate's geometry in d and its (u, lambda) in the world. *residual gets the
-// best merit.
-static int newton(ostContext* c, mjData* d, mjtNum h, mjtNum* residual) {
+// best merit, *relaxed 1 if the step kept part of a violation present at q- (OST_DEPENETRATED).
+static int newton(ostContext* c, mjData* d, mjtNum h, mjtNum* residual, int* relaxed) {
   ostWorld* w = &c->world;
   const ostOptions* o = &c->opt;
   ostSolverOptions so = ost_solverOptions(o);
@@ -281,6 +268,11 @@ static int newton(ostContext* c, mjData* d, mjtNum h, mjtNum* residual) {
     st->ncon += w->rows[i].type == OST_ROW_CONTACT;
   }
   *residual = ns.best_merit;
+  *relaxed = ns.relaxed;
+  if (ns.relaxed) {
+    st->status |= OST_DEPENETRATED;
+    st->initial_violation = mju_max(st->initial_violation, ns.initial_violation);
+  }
   d->solver_iter = ns.iterates < mjNSOLVER ? ns.iterates : mjNSOLVER;
   return OST_OK;
 }
@@ -395,6 +387,26 @@ void ost_warmLoad(ostContext* c, const void* buf) {
 }
 
 
+// count a step's outcome in the context's totals (ost_totals)
+static int countStep(ostContext* c, int status) {
+  ostTotals* t = &c->totals;
+  t->steps++;
+  if (status && !OST_IS_WARNING(status)) {
+    t->failed++;
+    t->last_failure = status;
+    t->overflow += status == OST_ERR_OVERFLOW;
+    return status;
+  }
+  const ostStats* st = &c->stats;
+  t->unconverged += (st->status & OST_NOT_CONVERGED) != 0;
+  t->depenetrated += (st->status & OST_DEPENETRATED) != 0;
+  t->overflow += (st->status & OST_OVERFLOW) != 0;
+  t->worst_residual = mju_max(t->worst_residual, st->residual);
+  t->worst_initial_violation = mju_max(t->worst_initial_violation, st->initial_violation);
+  return status;
+}
+
+
 int ost_step1(const mjModel* m, mjData* d) {
   if (!m) return -1;
   if (!d) return -2;
@@ -404,7 +416,7 @@ int ost_step1(const mjModel* m, mjData* d) {
   }
   int status = checkInputs(c, m, d, 0);
   if (status) {
-    return status;
+    return countStep(c, status);
   }
   mj_step1(m, d);  // stock position/velocity stages at (q-, u-) and mjcb_control
   return OST_OK;
@@ -467,7 +479,8 @@ static int advance(ostContext* c, const mjModel* m, mjData* d, mjtNum h, int dep
 
   // non-smooth Newton at q = q- (+) h u
   mjtNum residual = HUGE_VAL;
-  if ((status = newton(c, d, h, &residual))) {
+  int relaxed = 0;
+  if ((status = newton(c, d, h, &residual, &relaxed))) {
     return status;
   }
   if (residual > c->opt.split_tol && depth < c->opt.split_depth) {
@@ -488,7 +501,8 @@ static int advance(ostContext* c, const mjModel* m, mjData* d, mjtNum h, int dep
   memcpy(d->qacc_warmstart, qacc, nv * sizeof(mjtNum));
   d->time += h;
   osti_saveWarm(w);
-  if ((status = ost_recordSubstep(c, m, d, h))) {
+  int bits = (residual > c->opt.tol ? OST_NOT_CONVERGED : 0) | (relaxed ? OST_DEPENETRATED : 0);
+  if ((status = ost_recordSubstep(c, m, d, h, residual, bits))) {
     return status;
   }
   saveState(m, d, c->state_end);
@@ -504,6 +518,8 @@ static int advance(ostContext* c, const mjModel* m, mjData* d, mjtNum h, int dep
 }
 
 
+static int step2(ostContext* c, const mjModel* m, mjData* d);
+
 int ost_step2(const mjModel* m, mjData* d) {
   if (!m) return -1;
   if (!d) return -2;
@@ -511,6 +527,12 @@ int ost_step2(const mjModel* m, mjData* d) {
   if (!c) {
     return OST_ERR_MEMORY;
   }
+  return countStep(c, step2(c, m, d));
+}
+
+
+// ost_step2 on its context: the step, publication and statistics (uncounted)
+static int step2(ostContext* c, const mjModel* m, mjData* d) {
   int status;
   if ((status = ost_prepareContext(c, m)) || (status = checkInputs(c, m, d, 1))) {
     return status;
@@ -518,6 +540,7 @@ int ost_step2(const mjModel* m, mjData* d) {
   mjtNum h = c->opt.timestep > 0 ? c->opt.timestep : m->opt.timestep;
   ostWorld* w = &c->world;
   w->lookahead = c->opt.margin;
+  w->depen_speed = c->opt.depenetration_speed;
   memset(&c->stats, 0, sizeof(c->stats));
   c->rec_n = 0;
   saveState(m, d, c->state_start);
@@ -560,7 +583,8 @@ int ost_step2(const mjModel* m, mjData* d) {
     // MuJoCo's contacts, and the core pairs this step packed (ost_prepareContext)
     c->stats.max_penetration = ost_penetrationWith(m, d, &c->corepairs, c->hfield_data);
   }
-  return OST_OK;
+  // a step whose committed substeps did not all reach tol is taken, but says so
+  return (c->stats.status & OST_NOT_CONVERGED) ? OST_WARN_NOT_CONVERGED : OST_OK;
 }
 
 

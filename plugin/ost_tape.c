@@ -28,6 +28,8 @@ struct ostTape_ {
   size_t  ckpt_sz;                // bytes per checkpoint
   int     ckpt_cap;               // capacity of ckpt
   mjData* scratch;                // private mjData: recomputation and the backward pass
+  int     bad_step;               // first step not solved to tol (warning status), or -1
+  char    bad_err[256];           // why (ost_lastError of that step)
   char    err[512];               // message of the last failure
 };
 
@@ -42,6 +44,7 @@ ostTape* ost_tapeCreate(const mjModel* m, int checkpoint) {
   }
   t->m = m;
   t->checkpoint = checkpoint;
+  t->bad_step = -1;
   t->ninput = m->nu + m->nv + 6 * m->nbody;
   t->scratch = mj_makeData(m);
   ostContext* c = t->scratch ? ost_context(m, t->scratch) : NULL;
@@ -74,6 +77,7 @@ void ost_tapeClear(ostTape* t) {
   if (t) {
     t->nstep = 0;
     t->nrec = 0;
+    t->bad_step = -1;
     t->err[0] = 0;
   }
 }
@@ -173,8 +177,14 @@ int ost_tapeStep(ostTape* t, const mjModel* m, mjData* d) {
     saveCheckpoint(t, d, c, k / S);
   }
   int status = ost_step(m, d);
-  if (status) {
+  if (status && !OST_IS_WARNING(status)) {
     return tapeFail(t, status, ost_lastError(d));
+  }
+  if (status && t->bad_step < 0) {
+    // recorded, but the backward pass will refuse it (its gradient is not exact)
+    t->bad_step = k;
+    snprintf(t->bad_err, sizeof(t->bad_err), "residual %.3g m/s above tol",
+             ost_stats(d)->residual);
   }
   if (S) {
     // the inputs the step used (after mjcb_control), from its first record
@@ -192,7 +202,7 @@ int ost_tapeStep(ostTape* t, const mjModel* m, mjData* d) {
     t->step_rec[k + 1] = t->nrec;
   }
   t->nstep++;
-  return OST_OK;
+  return status;
 }
 
 
@@ -215,7 +225,7 @@ static int recomputeSegment(ostTape* t, int k0, int k1) {
     memcpy(d->qfrc_applied, in + m->nu, m->nv * sizeof(mjtNum));
     memcpy(d->xfrc_applied, in + m->nu + m->nv, 6 * m->nbody * sizeof(mjtNum));
     int status = ost_step(m, d);
-    if (status) {
+    if (status && !OST_IS_WARNING(status)) {
       return tapeFail(t, status, ost_lastError(d));
     }
     t->step_rec[k - k0] = t->nrec;
@@ -242,6 +252,12 @@ int ost_tapeBackward(ostTape* t, const mjModel* m, const ostGradOptions* go, con
   int status;
   if ((status = ost_prepareContext(c, m))) {
     return tapeFail(t, status, c->err);
+  }
+  if (t->bad_step >= 0) {
+    char msg[400];
+    snprintf(msg, sizeof(msg), "step %d of the rollout did not converge (%s): no exact "
+             "gradient; raise ostrich/newton_iter or lower h", t->bad_step, t->bad_err);
+    return tapeFail(t, OST_ERR_NOT_CONVERGED, msg);
   }
   mjtNum* g = (mjtNum*)calloc(2 * nv + 1, sizeof(mjtNum));
   if (!g) {
@@ -270,7 +286,9 @@ int ost_tapeBackward(ostTape* t, const mjModel* m, const ostGradOptions* go, con
     status = ost_recordsBackward(c, m, (char*)t->recs + r0 * t->rec_sz, r1 - r0, go, g, g + nv,
                                  gctrl ? gctrl + (size_t)k * nu : NULL, gtheta);
     if (status) {
-      tapeFail(t, status, c->err);
+      char msg[512];
+      snprintf(msg, sizeof(msg), "step %d: %.480s", k, c->err);
+      tapeFail(t, status, msg);
     }
   }
   for (int i = 0; i < nv && !status; i++) {

@@ -29,6 +29,8 @@ typedef enum ostStatus_ {         // result of a host call
   OST_ERR_NUMERIC   = 4,          // mass matrix not positive definite or non-finite solve
   OST_ERR_VERSION   = 5,          // MuJoCo library is not version 2.2.2
   OST_ERR_MEMORY    = 6,          // allocation failed
+  OST_ERR_NOT_CONVERGED = 7,      // a gradient was asked of a step that did not converge or
+                                  // kept part of an initial violation (named in message)
 
   // warnings (>= OST_WARN_FIRST): the step WAS taken and the state advanced, as MuJoCo goes on
   // after a warning; the answer is not to tolerance. Counted in ostTotals (ost_totals).
@@ -94,13 +96,39 @@ int ost_setOptions(const mjModel* m, mjData* d, const ostOptions* opt);
 
 //---------------------------------- Model check ---------------------------------------------------
 
-// Return OST_OK if Ostrich models every feature of m, else OST_ERR_MODEL and name the feature.
+// Refusal messages name every unsupported feature, one "; "-separated entry per feature with
+// the elements that use it: "unsupported by Ostrich (2 features): joint 'hinge': frictionloss
+// (dry joint friction); 3 actuators ('a', 'b', 'c'): activation dynamics (dyntype filter)";
+// entries that do not fit in err_sz end the message as "; ... and K more".
+
+#define OST_REFUSAL_NAMES 3       // element names an ostRefusal keeps
+
+typedef struct ostRefusal_ {      // one unsupported feature and the elements that use it
+  char what[24];                  // element kind ("joint", "geom pair", ...); "" for the model
+  char feature[256];              // the feature, and what to use instead where there is a choice
+  int  count;                     // elements that use it
+  char name[OST_REFUSAL_NAMES][64];  // the first min(count, 3) of them ("#id" when unnamed)
+} ostRefusal;
+
+// Return OST_OK if Ostrich models every feature of m, else OST_ERR_MODEL and name every
+// unsupported feature with its elements.
 int ost_checkModel(const mjModel* m, char* err, int err_sz);
 
+// Every feature of m that Ostrich does not model into out[0 .. nout); return how many there are
+// (0: none; beyond nout they are counted, not stored), -1 for a bad argument.
+int ost_checkModelList(const mjModel* m, ostRefusal* out, int nout);
 
-// Return OST_OK if the native geometry provider can represent m, else OST_ERR_MODEL and name the
-// first geom pair, joint or feature it cannot do.
+// Return OST_OK if the native geometry provider can represent m, else OST_ERR_MODEL and name
+// every geom pair, joint or feature it cannot do.
 int ost_checkNative(const mjModel* m, char* err, int err_sz);
+
+// ost_checkNative's refusals as a list, like ost_checkModelList.
+int ost_checkNativeList(const mjModel* m, ostRefusal* out, int nout);
+
+// Return OST_OK if ost_step accepts m with options opt, else OST_ERR_MODEL and one message that
+// names every refusal: ost_checkModel's, then those of opt's geometry provider (native:
+// ost_checkNative's; mujoco: no ostrich/terrain mesh, height fields only with margin 0).
+int ost_checkStep(const mjModel* m, const ostOptions* opt, char* err, int err_sz);
 
 // Geom id of the mesh that <custom><text name="ostrich/terrain" data="GEOM"/> marks as a
 // non-convex terrain surface (native provider only), or -1 if none.
@@ -262,7 +290,9 @@ void ost_tapeDelete(ostTape* t);
 // Forget the recorded rollout; keep the allocations.
 void ost_tapeClear(ostTape* t);
 
-// ost_step(m, d) and record the step. The first step after ost_tapeClear fixes the start state.
+// ost_step(m, d) and record the step; returns ost_step's status. A step that returns a warning
+// (OST_IS_WARNING) is recorded, but ost_tapeBackward then refuses the rollout with
+// OST_ERR_NOT_CONVERGED naming the step. The first step after ost_tapeClear fixes the start state.
 int ost_tapeStep(ostTape* t, const mjModel* m, mjData* d);
 
 // Steps recorded since the last ost_tapeClear.
@@ -340,14 +370,21 @@ int ost_batchKeepCheckpoints(ostBatch* b, int every);
 // numbers; on cuda its columns spread over several threads) gives the implicit-function-theorem
 // update (core/ost_batch_adjoint.h). Memory per lane: the checkpoints and one segment's records; a
 // segment of S steps records at most 2 S + 8 substeps. A world whose rollout failed, whose
-// segment records more substeps (OST_OVERFLOW) or whose Jacobian is singular (OST_NAN) gets
-// NaN gradients and that bit. go->truncate is honoured; go->params is refused (no parameter
+// segment records more substeps (OST_OVERFLOW), whose Jacobian is singular (OST_NAN) or whose
+// rollout has a step that did not converge (OST_NOT_CONVERGED) or kept part of an initial
+// violation (OST_DEPENETRATED) gets NaN gradients and that bit: the implicit function theorem
+// holds only at a solved step. go->truncate is honoured; go->params is refused (no parameter
 // gradients for batches: use a tape).
 int ost_batchBackward(ostBatch* b, const ostGradOptions* go, int checkpoint, const mjtNum* gq,
                       const mjtNum* gu, mjtNum* gctrl, mjtNum* gq0, mjtNum* gu0);
 
-// Outcome bits of every world's last step (nworld ints, ostStatusBit).
+// Outcome bits of every world's last step (nworld ints, ostStatusBit). OST_NOT_CONVERGED and
+// OST_DEPENETRATED are warnings: the world stepped on.
 int ost_batchStatus(const ostBatch* b, int* status);
+
+// Steps of every world, since its state was last set, whose answer did not reach opt.tol
+// (OST_NOT_CONVERGED; nworld ints).
+int ost_batchUnconverged(const ostBatch* b, int* count);
 
 // Bytes of the batch's world memory (host for cpu, device for cuda; the model not included).
 size_t ost_batchBytes(const ostBatch* b);
