@@ -4,31 +4,14 @@
 // decided once here (contype/conaffinity, <exclude>, <pair>, welded bodies, parent-child), so a
 // step only tests pairs that can collide.
 // Invariant: a packed model carries every feature that native stepping needs, or packing fails
-// with a message naming the first feature it cannot represent; nothing is silently dropped.
+// with a message naming every feature it cannot represent; nothing is silently dropped.
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "ost_check.h"
 #include "ost_collision_terrain.h"
 #include "ost_internal.h"
-
-#define REFUSE(...)                                  \
-  do {                                               \
-    if (err) snprintf(err, err_sz, __VA_ARGS__);     \
-    return OST_ERR_MODEL;                            \
-  } while (0)
-
-
-// name of object i of a type, or "#i" when unnamed
-static const char* name(const mjModel* m, int type, int i, char* buf, int sz) {
-  const char* n = mj_id2name(m, type, i);
-  if (n && n[0]) {
-    return n;
-  }
-  snprintf(buf, sz, "#%d", i);
-  return buf;
-}
-
 
 // 1 if MuJoCo 2.2.2 has a collision function for the (ordered) type pair
 static int typesCollide(int t1, int t2) {
@@ -82,67 +65,99 @@ static int dynamicPair(const mjModel* m, int g1, int g2) {
 }
 
 
-int ost_checkNative(const mjModel* m, char* err, int err_sz) {
-  char nb[32], nb2[32];
+void ost_refusalsNative(const mjModel* m, ostRefusalList* l) {
+  char nb[64], nb2[64], pair[160];
   int terrain = ost_terrainGeom(m);
   int text = mj_name2id(m, mjOBJ_TEXT, "ostrich/terrain");
   if (text >= 0 && (terrain < 0 || m->geom_type[terrain] != mjGEOM_MESH)) {
-    REFUSE("ostrich/terrain names '%s', which is not a mesh geom",
-           m->text_data + m->text_adr[text]);
+    ost_refuse(l, "", NULL, "ostrich/terrain names '%s', which is not a mesh geom",
+               m->text_data + m->text_adr[text]);
   }
-  if (m->neq > 0) {
-    REFUSE("equality constraint '%s': the native geometry provider has no equality rows yet "
-           "(use ostrich/geometry 0, the mujoco provider)", name(m, mjOBJ_EQUALITY, 0, nb, 32));
+  for (int i = 0; i < m->neq; i++) {
+    ost_refuse(l, "equality constraint", ost_objName(m, mjOBJ_EQUALITY, i, nb, sizeof(nb)),
+               "equality rows, which the native geometry provider does not have yet (use "
+               "ostrich/geometry 0, the mujoco provider)");
   }
-  if (m->ntendon > 0) {
-    REFUSE("tendon '%s': the native geometry provider has no tendons",
-           name(m, mjOBJ_TENDON, 0, nb, 32));
+  for (int i = 0; i < m->ntendon; i++) {
+    ost_refuse(l, "tendon", ost_objName(m, mjOBJ_TENDON, i, nb, sizeof(nb)),
+               "tendons, which the native geometry provider does not have");
   }
-  if (m->nmocap > 0) {
-    REFUSE("mocap bodies are not supported by the native provider");
+  for (int b = 0; b < m->nbody; b++) {
+    if (m->body_mocapid[b] >= 0) {
+      ost_refuse(l, "body", ost_objName(m, mjOBJ_BODY, b, nb, sizeof(nb)),
+                 "mocap bodies, which the native geometry provider does not support");
+    }
   }
   if (m->opt.viscosity > 0 || m->opt.density > 0) {
-    REFUSE("fluid forces (option viscosity/density) are not supported by the native provider");
+    ost_refuse(l, "", NULL, "fluid forces (option viscosity/density), which the native "
+               "geometry provider does not support");
   }
   for (int j = 0; j < m->njnt; j++) {
     int t = m->jnt_type[j];
     if ((t == mjJNT_HINGE || t == mjJNT_SLIDE) && m->qpos0[m->jnt_qposadr[j]] != 0) {
-      REFUSE("joint '%s': a nonzero ref is not supported by the native provider",
-             name(m, mjOBJ_JOINT, j, nb, 32));
+      ost_refuse(l, "joint", ost_objName(m, mjOBJ_JOINT, j, nb, sizeof(nb)),
+                 "a nonzero ref, which the native geometry provider does not support");
     }
     if (m->jnt_limited[j] && (t == mjJNT_BALL || t == mjJNT_FREE)) {
-      REFUSE("joint '%s': limits on ball joints are not supported by the native provider",
-             name(m, mjOBJ_JOINT, j, nb, 32));
+      ost_refuse(l, "joint", ost_objName(m, mjOBJ_JOINT, j, nb, sizeof(nb)),
+                 "limits on a ball joint, which the native geometry provider does not support");
     }
   }
   for (int i = 0; i < m->nu; i++) {
     int t = m->actuator_trntype[i], j = m->actuator_trnid[2 * i];
     if (t != mjTRN_JOINT || (m->jnt_type[j] != mjJNT_HINGE && m->jnt_type[j] != mjJNT_SLIDE)) {
-      REFUSE("actuator '%s': the native provider supports joint transmissions on hinge and "
-             "slide joints only", name(m, mjOBJ_ACTUATOR, i, nb, 32));
+      ost_refuse(l, "actuator", ost_objName(m, mjOBJ_ACTUATOR, i, nb, sizeof(nb)),
+                 "a transmission other than a hinge or slide joint, which the native geometry "
+                 "provider does not support");
     }
   }
   for (int g = 0; g < m->ngeom; g++) {
     int t = m->geom_type[g];
     if (t == mjGEOM_MESH && g == terrain && m->geom_bodyid[g] != 0) {
-      REFUSE("geom '%s': a terrain mesh must be a geom of the worldbody",
-             name(m, mjOBJ_GEOM, g, nb, 32));
+      ost_refuse(l, "geom", ost_objName(m, mjOBJ_GEOM, g, nb, sizeof(nb)),
+                 "a terrain mesh outside the worldbody (it must be a geom of the worldbody)");
     }
     if (t == mjGEOM_MESH && g != terrain) {
       for (int p = 0; p < m->ngeom; p++) {
         if (m->geom_type[p] == mjGEOM_PLANE && dynamicPair(m, p, g)) {
-          REFUSE("geom pair '%s' (plane) - '%s' (mesh): plane-mesh contacts need the mesh's "
-                 "convex-hull graph, which the native provider does not pack yet",
-                 name(m, mjOBJ_GEOM, p, nb, 32), name(m, mjOBJ_GEOM, g, nb2, 32));
+          snprintf(pair, sizeof(pair), "%s - %s", ost_objName(m, mjOBJ_GEOM, p, nb, sizeof(nb)),
+                   ost_objName(m, mjOBJ_GEOM, g, nb2, sizeof(nb2)));
+          ost_refuse(l, "geom pair", pair, "plane-mesh contacts, which need the mesh's "
+                     "convex-hull graph that the native geometry provider does not pack yet");
         }
       }
     }
     if (t == mjGEOM_HFIELD && m->body_weldid[m->geom_bodyid[g]] != 0) {
-      REFUSE("geom '%s': a height field must be static (attached to the world)",
-             name(m, mjOBJ_GEOM, g, nb, 32));
+      ost_refuse(l, "geom", ost_objName(m, mjOBJ_GEOM, g, nb, sizeof(nb)),
+                 "a moving height field (the native geometry provider needs it static, "
+                 "attached to the world)");
     }
   }
-  return OST_OK;
+}
+
+
+int ost_checkNativeList(const mjModel* m, ostRefusal* out, int nout) {
+  if (!m || nout < 0 || (nout > 0 && !out)) {
+    return -1;
+  }
+  ostRefusal item[OST_REFUSAL_CAP];
+  ostRefusalList l = {item, OST_REFUSAL_CAP, 0, 0};
+  ost_refusalsNative(m, &l);
+  for (int i = 0; i < l.n && i < nout; i++) {
+    out[i] = item[i];
+  }
+  return l.n + l.extra;
+}
+
+
+int ost_checkNative(const mjModel* m, char* err, int err_sz) {
+  if (!m) {
+    return -1;
+  }
+  ostRefusal item[OST_REFUSAL_CAP];
+  ostRefusalList l = {item, OST_REFUSAL_CAP, 0, 0};
+  ost_refusalsNative(m, &l);
+  return ost_refusalMessage(&l, "unsupported by the native geometry provider", err, err_sz);
 }
 
 
