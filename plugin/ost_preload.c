@@ -13,9 +13,16 @@
 // Messages (stderr, each one line, prefixed "ostrich: "):
 //   banner   "stepping <model> with Ostrich"           first Ostrich step of the process
 //   refusal  "refusing model '<name>': <err>; ..."      once per model, printed even when quiet
-//   failure  "step failed: <ost_lastError>"             once per process per status code
-//   summary  "<N> steps, mean Newton iterations <x>, mean residual <y>[, <k> failed]"   at exit
-//            (means over the steps that returned OST_OK)
+//   failure  "step <t> failed: <ost_lastError>; this step was taken by stock MuJoCo"
+//            on the first failure of each status code; every failure is counted
+//   warning  "step <t> did not converge (residual r m/s); ..."   on the first such step
+//   summary  "<N> steps, mean Newton iterations <x>, mean residual <y>, <u> not converged
+//            (worst residual r), <k> failed and stepped by stock MuJoCo[ (last: ...)]"   at exit
+//            (means over the steps that Ostrich took)
+// A failed Ostrich step (capacity overflow, numerical failure) leaves the state as it was; the
+// shim then takes that step with stock MuJoCo, so that a program never keeps stepping a frozen
+// state, and says so. Like MuJoCo's warnings, failures and unconverged steps are counted on
+// every occurrence and printed on the first.
 // OSTRICH_QUIET=1 silences the banner and the summary.
 //
 // LD_PRELOAD is removed from the environment of a program that links libmujoco, so its children
@@ -88,7 +95,10 @@ static atomic_uint g_failed_seen = 0;       // bit s: failure with status s prin
 // step statistics, guarded by g_stats_lock
 static pthread_mutex_t g_stats_lock = PTHREAD_MUTEX_INITIALIZER;
 static long g_nstep = 0;                    // steps routed to Ostrich
-static long g_nfail = 0;                    // of which returned an error status
+static long g_nfail = 0;                    // of which returned an error status (then stock)
+static long g_nwarn = 0;                    // of which were taken but not to tolerance
+static double g_worst_residual = 0;         // largest residual of those (m/s)
+static char g_last_fail[200] = "";          // message of the last failure
 static long g_nstat = 0;                    // successful steps with statistics
 static double g_sum_iter = 0;               // sum of Newton iterations over those
 static double g_sum_residual = 0;           // sum of merit residuals over those
@@ -222,17 +232,20 @@ __attribute__((constructor)) static void ostPreloadInit(void) {
 // destructor: one summary line of the Ostrich steps of this process
 __attribute__((destructor)) static void ostPreloadFini(void) {
   pthread_mutex_lock(&g_stats_lock);
-  long nstep = g_nstep, nfail = g_nfail, nstat = g_nstat;
-  double sum_iter = g_sum_iter, sum_residual = g_sum_residual;
+  long nstep = g_nstep, nfail = g_nfail, nstat = g_nstat, nwarn = g_nwarn;
+  double sum_iter = g_sum_iter, sum_residual = g_sum_residual, worst = g_worst_residual;
+  char last[200];
+  snprintf(last, sizeof(last), "%s", g_last_fail);
   pthread_mutex_unlock(&g_stats_lock);
-  if (g_quiet || nstep == 0) {
+  // failures and unconverged steps are reported even when quiet
+  if ((g_quiet && nfail == 0 && nwarn == 0) || nstep == 0) {
     return;
   }
 
-  char tail[64] = "";
-  if (nfail > 0) {
-    snprintf(tail, sizeof(tail), ", %ld failed", nfail);
-  }
+  char tail[400];
+  snprintf(tail, sizeof(tail), ", %ld not converged (worst residual %.3g m/s), %ld failed and "
+           "stepped by stock MuJoCo%s%s%s", nwarn, worst, nfail, nfail ? " (last: " : "",
+           nfail ? last : "", nfail ? ")" : "");
   if (nstat > 0) {
     fprintf(stderr, "ostrich: %ld steps, mean Newton iterations %.2f, mean residual %.3g%s\n",
             nstep, sum_iter / nstat, sum_residual / nstat, tail);
@@ -344,19 +357,23 @@ static int useOstrich(const mjModel* m, const mjData* d) {
 }
 
 
-// print the failure of a step, once per process per status code
-static void reportFailure(const mjData* d, int status) {
-  int bit = (status > 0 && status < 31) ? status : 31;
+// print a failure or warning of a step at time t, once per process per status code
+static void reportFailure(const mjData* d, int status, double t) {
+  int bit = OST_IS_WARNING(status) ? 30 : (status > 0 && status < 30) ? status : 31;
   unsigned mask = 1u << bit;
   if (atomic_fetch_or(&g_failed_seen, mask) & mask) {
     return;
   }
-  const char* msg = ost_lastError(d);
-  if (msg && msg[0]) {
-    fprintf(stderr, "ostrich: step failed: %s\n", msg);
-  } else {
-    fprintf(stderr, "ostrich: step failed: status %d\n", status);
+  const ostStats* st = ost_stats(d);
+  if (OST_IS_WARNING(status)) {
+    fprintf(stderr, "ostrich: step at t = %g s did not converge (residual %.3g m/s above tol); "
+            "the step was taken; such steps are counted (raise ostrich/newton_iter or lower "
+            "h)\n", t, st ? st->residual : 0.0);
+    return;
   }
+  const char* msg = ost_lastError(d);
+  fprintf(stderr, "ostrich: step at t = %g s failed: %s; this step and later failed ones are "
+          "taken by stock MuJoCo and counted\n", t, msg && msg[0] ? msg : "(no message)");
 }
 
 
@@ -369,24 +386,42 @@ static void ostrichStep(const mjModel* m, mjData* d, int half) {
 
   // step; calls back into mj_* from inside Ostrich go to stock
   tl_inside++;
+  double t = d->time;
   int status = half ? ost_step2(m, d) : ost_step(m, d);
   const ostStats* stats = ost_stats(d);
   int newton_iter = stats ? stats->newton_iter : 0;
   double residual = stats ? stats->residual : 0;
+  int failed = status != OST_OK && !OST_IS_WARNING(status);
   if (status != OST_OK) {
-    reportFailure(d, status);
+    reportFailure(d, status, t);
   }
+  char msg[200];
+  snprintf(msg, sizeof(msg), "%s", failed ? ost_lastError(d) : "");
   tl_inside--;
+
+  // a failed step left the state unchanged: take it with stock MuJoCo instead of freezing
+  if (failed) {
+    if (half && g_real.step2) {
+      g_real.step2(m, d);
+    } else if (!half && g_real.step) {
+      g_real.step(m, d);
+    }
+  }
 
   // accumulate
   pthread_mutex_lock(&g_stats_lock);
   g_nstep++;
-  if (status != OST_OK) {
+  if (failed) {
     g_nfail++;
+    snprintf(g_last_fail, sizeof(g_last_fail), "%s", msg);
   } else if (stats) {
     g_nstat++;
     g_sum_iter += newton_iter;
     g_sum_residual += residual;
+    if (OST_IS_WARNING(status)) {
+      g_nwarn++;
+      g_worst_residual = residual > g_worst_residual ? residual : g_worst_residual;
+    }
   }
   pthread_mutex_unlock(&g_stats_lock);
 }

@@ -19,6 +19,7 @@ typedef struct rollout_ {         // one gradient-check problem
   mjData* d;
   ostOptions opt;
   int nstep;
+  int accept_warnings;            // 1: steps not solved to tol are expected (tiny budgets)
   mjtNum* qpos0;                  // start state (nq, nv)
   mjtNum* qvel0;
   mjtNum* ctrl;                   // per step (nstep x nu)
@@ -44,7 +45,8 @@ static double runLoss(rollout* r, ostTape* tape) {
     if (k > 0) {
       memcpy(d->ctrl, r->ctrl + (k - 1) * m->nu, m->nu * sizeof(mjtNum));
       int status = tape ? ost_tapeStep(tape, m, d) : ost_step(m, d);
-      ck_assert_msg(status == OST_OK, "step %d: %s", k, ost_lastError(d));
+      ck_assert_msg(status == OST_OK || (r->accept_warnings && OST_IS_WARNING(status)),
+                    "step %d: status %d %s", k, status, ost_lastError(d));
     }
     mj_differentiatePos(m, dq, 1, r->qref, d->qpos);
     for (int i = 0; i < nv; i++) {
@@ -400,6 +402,7 @@ START_TEST(test_memoryPerStep) {
     rollout* r = newRollout("wheeled_robot.xml", 0.05, 64, 3, 6);
     r->opt.newton_iter = budgets[b];
     r->opt.pcr_iter = budgets[b];
+    r->accept_warnings = 1;  // a 4-iterate budget does not reach tol; bytes are measured here
     runLoss(r, NULL);  // contexts and scratch exist before measuring
     ostTape* t = ost_tapeCreate(r->m, 0);
     size_t before = ost_tapeBytes(t);

@@ -190,8 +190,11 @@ START_TEST(test_nativeStepFromSameState) {
         memcpy(pair[p]->ctrl, run->ctrl, mb->nu * sizeof(mjtNum));
         mju_zero(pair[p]->qacc_warmstart, mb->nv);
       }
-      ck_assert_msg(ost_step(ma, da) == OST_OK, "mujoco provider: %s", ost_lastError(da));
-      ck_assert_msg(ost_step(mb, db) == OST_OK, "native provider: %s", ost_lastError(db));
+      // two Newton iterates need not reach tol: both providers take the step and agree on
+      // whether it converged
+      int sa = ost_step(ma, da), sb = ost_step(mb, db);
+      ck_assert_msg(sa == OST_OK || OST_IS_WARNING(sa), "mujoco provider: %s", ost_lastError(da));
+      ck_assert_msg(sb == OST_OK || OST_IS_WARNING(sb), "native provider: %s", ost_lastError(db));
       ncontact += ost_stats(db)->ncon;
       double diff = 0;
       for (int j = 0; j < mb->nq; j++) diff = fmax(diff, fabs(da->qpos[j] - db->qpos[j]));

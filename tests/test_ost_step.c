@@ -85,13 +85,22 @@ START_TEST(test_splitStep) {
   ck_assert_int_eq(ost_setOptions(m, d, &opt), OST_OK);
   for (int i = 0; i < m->nu; i++) d->ctrl[i] = 3;
   int split = 0;
+  int warned = 0;
   for (int k = 0; k < 20; k++) {
-    ck_assert_int_eq(ost_step(m, d), OST_OK);
+    // a step is a warning exactly when a committed substep stayed above tol
+    int status = ost_step(m, d);
+    ck_assert(status == OST_OK || status == OST_WARN_NOT_CONVERGED);
+    ck_assert_int_eq(status == OST_WARN_NOT_CONVERGED, ost_stats(d)->residual > opt.tol);
+    ck_assert_int_eq(status == OST_WARN_NOT_CONVERGED,
+                     (ost_stats(d)->status & OST_NOT_CONVERGED) != 0);
+    warned += status != OST_OK;
     split += ost_stats(d)->substeps > 1;
     ck_assert_int_le(ost_stats(d)->substeps, 8);
     ck_assert_double_eq_tol(d->time, 0.1 * (k + 1), 1e-12);
   }
-  printf("pallet h=0.1: %d of 20 steps split\n", split);
+  printf("pallet h=0.1: %d of 20 steps split, %d not converged\n", split, warned);
+  ck_assert_int_eq(ost_totals(d)->unconverged, warned);
+  ck_assert_int_eq(ost_totals(d)->steps, 20);
   ck_assert_int_gt(split, 0);
   ost_deleteData(d);
   mj_deleteModel(m);
