@@ -131,6 +131,11 @@ int ost_prepareContext(ostContext* c, const mjModel* m) {
   }
   mjModel* mo = c->mo;
   ost_widenMargins(mo, c->opt.margin);
+  // MuJoCo fills the mass matrix of "simple" bodies from dof_M0, set once at load time
+  // (mj_setConst), so a body_mass or body_inertia edited between steps would change gravity but
+  // not M. The private model marks no dof and body simple: its CRB (mujocoStart) follows edits.
+  memset(mo->dof_simplenum, 0, mo->nv * sizeof(int));
+  memset(mo->body_simple, 0, mo->nbody * sizeof(mjtByte));
   if (c->opt.geometry == OST_GEOMETRY_NATIVE) {
     return ost_nativeReady(c, m);
   }
@@ -448,7 +453,9 @@ static void mujocoStart(ostContext* c, const mjModel* m, mjData* d, mjtNum h, in
     }
   }
 
-  // Mt = M(q-) + h D (implicit joint damping, as MuJoCo's Euler), factored once per step
+  // Mt = M(q-) + h D (implicit joint damping, as MuJoCo's Euler), factored once per step. M by
+  // the private model's CRB, which follows run-time mass edits (ost_prepareContext)
+  mj_crb(c->mo, d);
   mj_fullM(m, w->M, d->qM);
   for (int j = 0; j < nv; j++) {
     w->M[j * nv + j] += h * m->dof_damping[j];
