@@ -272,8 +272,10 @@ static hardStatus hard_stateStatus(const mjModel* m, const mjData* d, const hard
   char why[CLI_MSG_SZ];
   int bad = cli_hasNan(m, d);
   if (bad) {
-    hard_stopped(r, r->steps, bad == 1 ? "non-finite qpos or qvel" :
-                 "MuJoCo found a NaN, Inf or huge value and reset the state");
+    hard_stopped(r, r->steps, bad == 1 ? "non-finite qpos or qvel" : r->ostrich ?
+                 "Ostrich's step diverged (a MuJoCo stage it calls found a NaN, Inf or huge "
+                 "value and reset the state)" :
+                 "mj_step found a NaN, Inf or huge value and reset the state");
     return HARD_NAN;
   }
   double vmax = 0;

@@ -1,11 +1,12 @@
 // ost_cli.c: the `ostrich` command-line tool. Subcommands are dispatched from one table
 // (kCommands); `sim` loads an MJCF model, steps it with Ostrich (ost_step) or stock MuJoCo
-// (mj_step), optionally writes the trajectory as CSV, and prints a JSON summary; `check`
-// compares native geometry with MuJoCo's. `synth` (ost_cli_synth.c) and `gradcheck`
-// (ost_cli_gradcheck.c) live in their own files; the shared helpers in ost_cli_util.c.
+// (mj_step) from qpos0 or a keyframe (--key), optionally writes the trajectory as CSV, and
+// prints a JSON summary; `check` runs sim's acceptance test, then compares native geometry with
+// MuJoCo's. `synth` (ost_cli_synth.c) and `gradcheck` (ost_cli_gradcheck.c) live in their own
+// files; the shared helpers in ost_cli_util.c.
 // Mirrors MuJoCo's sample programs (testspeed.cc, basic.cc), without rendering.
 //
-// Invariant: stdout carries exactly one JSON line per run and nothing else; every diagnostic
+// Invariant: stdout carries at most one JSON line per run and nothing else; every diagnostic
 // and progress line goes to stderr and starts with "ostrich:" (MuJoCo warnings with
 // "mujoco warning:"). Exit codes: 0 success, 1 the run failed (NaN, failed step, MuJoCo error,
 // a check over tolerance), 2 bad usage or unusable input (options, model file, XML, model
@@ -39,6 +40,7 @@ typedef struct simArgs_ {         // arguments of `ostrich sim`
   long        pcr;                // PCR budget; -1: not given
   const char* out;                // CSV path; NULL: none
   const char* geometry;           // "mujoco" or "native"; NULL: the model's option
+  long        key;                // start keyframe; CLI_KEY_NONE: qpos0
   int         help;               // --help was given
 } simArgs;
 
@@ -63,6 +65,7 @@ static const cliOption kSimOptions[] = {
   {"--geometry", CLI_ARG_STRING, offsetof(simArgs, geometry), "mujoco|native",
    "Ostrich's geometry provider (ostrich/geometry): MuJoCo's kinematics\n"
    "and collision, or Ostrich's portable native geometry"},
+  CLI_KEY_OPTION(simArgs),
   {"--out", CLI_ARG_STRING, offsetof(simArgs, out), "FILE.csv",
    "write the trajectory as CSV: header time,qpos_0..,qvel_0..; one row\n"
    "for the initial state, then one after each step (%.10g)"},
@@ -81,7 +84,9 @@ static void sim_usage(FILE* f) {
     "nan (a non-finite qpos/qvel was seen, or MuJoCo reset a diverged state; stepping stops\n"
     "there), max_penetration (m, deepest contact over all steps), mean_residual (ostrich: merit\n"
     "residual; mujoco: final solver gradient norm), mean_newton_iter (ostrich: Newton\n"
-    "iterates; mujoco: solver iterations) and final_qpos.\n"
+    "iterates; mujoco: solver iterations), key (the start keyframe, null: qpos0) and\n"
+    "final_qpos. Both engines start from the same state: qpos0 (mj_resetData), or keyframe K\n"
+    "with --key K.\n"
     "\n"
     "options:\n");
   cli_printOptions(f, kSimOptions, kSimNumOptions);
@@ -91,13 +96,15 @@ static void sim_usage(FILE* f) {
     "Progress lines (ostrich: step k/N) go to stderr every second on runs longer than about\n"
     "2 s, unless OSTRICH_QUIET=1. Exit status: 0 success; 1 the simulation failed (NaN,\n"
     "failed step, MuJoCo error; the JSON line and the CSV still cover the steps taken); 2 bad\n"
-    "usage, missing or malformed model, model refused by Ostrich.\n", "-h, --help");
+    "usage, missing or malformed model, --key out of range, model refused by Ostrich (the\n"
+    "message names every unsupported feature; `ostrich check` gives the same).\n",
+    "-h, --help");
 }
 
 
 // Parse the arguments of `ostrich sim`; return 0 on success, else print why.
 static int sim_parseArgs(int argc, char** argv, simArgs* a) {
-  *a = (simArgs){.engine = "ostrich", .steps = -1, .newton = -1, .pcr = -1};
+  *a = (simArgs){.engine = "ostrich", .steps = -1, .newton = -1, .pcr = -1, .key = CLI_KEY_NONE};
   return cli_parseArgs("sim", argc, argv, kSimOptions, kSimNumOptions, a, &a->model, &a->help);
 }
 
@@ -156,6 +163,7 @@ static int sim_setup(const simArgs* a, simRun* r) {
   } else {
     r->h = a->h > 0 ? a->h : r->m->opt.timestep;
   }
+  cli_resetStart(r->m, r->d, a->key);
 
   // keep the model consistent with the step size (stock stages read opt.timestep)
   r->m->opt.timestep = r->h;
@@ -269,9 +277,14 @@ static int sim_record(simRun* r, long k) {
   }
   r->nan = 1;
   if (bad == 1) {
-    cli_error("non-finite qpos or qvel after step %ld", k + 1);
+    cli_error("step %ld: %s step left a non-finite qpos or qvel", k + 1,
+              r->ostrich ? "Ostrich's" : "MuJoCo's");
+  } else if (r->ostrich) {
+    cli_error("step %ld: Ostrich's step diverged (a MuJoCo stage it calls found a bad "
+              "qpos/qvel/qacc and reset the state)", k + 1);
   } else {
-    cli_error("step %ld diverged: MuJoCo found a bad qpos/qvel/qacc and reset the state", k + 1);
+    cli_error("step %ld: MuJoCo's step diverged (mj_step found a bad qpos/qvel/qacc and reset "
+              "the state)", k + 1);
   }
   return 1;
 }
@@ -332,6 +345,11 @@ static void sim_report(const simArgs* a, const simRun* r) {
   cli_jsonNumber(stdout, r->sum_residual / n);
   printf(",\"mean_newton_iter\":");
   cli_jsonNumber(stdout, r->sum_iter / n);
+  if (a->key == CLI_KEY_NONE) {
+    printf(",\"key\":null");
+  } else {
+    printf(",\"key\":%ld", a->key);
+  }
   printf(",\"final_qpos\":[");
   for (int i = 0; i < r->m->nq; i++) {
     if (i) {
@@ -385,7 +403,7 @@ int sim_main(int argc, char** argv) {
   // load, configure, step, report
   simRun r = {0};
   int status = CLI_USAGE;
-  if (!cli_loadModel(a.model, &r.m, &r.d) && !sim_setup(&a, &r)) {
+  if (!cli_loadModel(a.model, &r.m, &r.d) && !cli_checkKey(r.m, a.key) && !sim_setup(&a, &r)) {
     status = sim_loop(&r);
     sim_report(&a, &r);
   }
@@ -417,14 +435,36 @@ static void check_usage(FILE* f) {
   fprintf(f,
     "usage: ostrich check MODEL.xml [options]\n"
     "\n"
-    "Compare Ostrich's native geometry (kinematics, mass matrix, bias forces, Jacobians,\n"
-    "contacts) with MuJoCo's at every keyframe and at N random configurations. Prints one\n"
-    "JSON line with the largest error of each quantity; exit code 1 if any is over tolerance\n"
-    "(1e-10 relative for kinematics and dynamics, 1e-9 for analytic contact pairs, 1e-6 for\n"
-    "MPR pairs and height fields), 2 for bad usage or a model native cannot represent.\n"
+    "First the acceptance test of `ostrich sim MODEL.xml` (the model's features, its\n"
+    "<custom> ostrich/* options and its geometry provider): a model that sim refuses is\n"
+    "refused here with the same message, which names every unsupported feature and the\n"
+    "elements that use it. Then compare Ostrich's native geometry (kinematics, mass matrix,\n"
+    "bias forces, Jacobians, contacts) with MuJoCo's at every keyframe and at N random\n"
+    "configurations (keyframes are only configurations to compare at here: check steps\n"
+    "nothing, so it has no start state and no --key).\n"
+    "\n"
+    "Prints one JSON line: model, accepted (sim's verdict), native (whether the native\n"
+    "provider can represent the model; null if not accepted), refusal (the message, or\n"
+    "null), then states and the largest error of each quantity, and ok.\n"
+    "Exit status: 0 ok; 1 an error over tolerance (1e-10 relative for kinematics and\n"
+    "dynamics, 1e-9 for analytic contact pairs, 1e-6 for MPR pairs and height fields); 2 bad\n"
+    "usage, a model that sim refuses, or one the native provider cannot represent.\n"
     "\n"
     "options:\n");
   cli_printOptions(f, kCheckOptions, kCheckNumOptions);
+  cli_printHelpOption(f);
+}
+
+
+// Print the JSON line of a refused model: accepted 0 (sim refuses it) or 1 (native cannot).
+static void check_refused(const char* model, int accepted, const char* refusal) {
+  printf("{\"model\": ");
+  cli_jsonString(stdout, model);
+  printf(", \"accepted\": %s, \"native\": %s, \"refusal\": ", accepted ? "true" : "false",
+         accepted ? "false" : "null");
+  cli_jsonString(stdout, refusal);
+  printf(", \"ok\": false}\n");
+  fflush(stdout);
 }
 
 
@@ -448,20 +488,33 @@ int check_main(int argc, char** argv) {
     sim_free(&r);
     return CLI_USAGE;
   }
+
+  // the acceptance test of `sim MODEL.xml` (cli_setupOstrich), with its message
   char err[CLI_MSG_SZ] = "";
+  ostOptions opt;
+  if (cli_ostrichOptions(r.m, 0, -1, -1, NULL, &opt, err, sizeof(err))) {
+    cli_error("%s", err);
+    check_refused(a.model, 0, err);
+    sim_free(&r);
+    return CLI_USAGE;
+  }
   ostNativeReport rep;
   int status = ost_compareNative(r.m, (int)a.states, (unsigned)a.seed, &rep, err, sizeof(err));
   if (status != OST_OK) {
     cli_error("%s", err);
+    check_refused(a.model, 1, err);
     sim_free(&r);
     return CLI_USAGE;
   }
-  printf("{\"model\": \"%s\", \"states\": %d, \"contacts\": %d, \"body_pos\": %.3g, "
+  printf("{\"model\": ");
+  cli_jsonString(stdout, a.model);
+  printf(", \"accepted\": true, \"native\": true, \"refusal\": null, \"states\": %d, "
+         "\"contacts\": %d, \"body_pos\": %.3g, "
          "\"body_rot\": %.3g, \"mass_matrix\": %.3g, \"bias\": %.3g, \"passive\": %.3g, "
          "\"actuator\": %.3g, \"jacobian\": %.3g, \"contact_count\": %d, "
          "\"contact_dist\": %.3g, \"contact_normal\": %.3g, \"contact_pos\": %.3g, "
          "\"mpr_dist\": %.3g, \"mpr_normal\": %.3g, \"mpr_pos\": %.3g, \"ok\": %s}\n",
-         a.model, rep.nstate, rep.ncontact, rep.body_pos, rep.body_rot, rep.mass_matrix,
+         rep.nstate, rep.ncontact, rep.body_pos, rep.body_rot, rep.mass_matrix,
          rep.bias, rep.passive, rep.actuator, rep.jacobian, rep.contact_count,
          rep.contact_analytic[0], rep.contact_analytic[1], rep.contact_analytic[2],
          rep.contact_mpr[0], rep.contact_mpr[1], rep.contact_mpr[2], rep.ok ? "true" : "false");

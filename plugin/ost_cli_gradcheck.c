@@ -3,7 +3,7 @@
 // the start state, every control of every step, and the physical parameters theta. Mirrors
 // MuJoCo's engine_derivative_test.cc (mjd_ against mjd_FD), at the scale of a whole rollout.
 //
-// The rollout: N steps of ost_step from x0 = (qpos0 or keyframe 0, qvel0 + seeded noise), with
+// The rollout: N steps of ost_step from x0 = (qpos0 or keyframe --key, qvel0 + seeded noise), with
 // controls ctrl_k = --ctrl + seeded noise. The loss is a seeded linear-plus-quadratic function of
 // every state along it, so that every step contributes:
 //   L = sum_{k=0..N} (a_k . qpos_k + b_k . qvel_k) + 1/2 |qpos_N - q*|^2 + 1/2 |qvel_N - v*|^2.
@@ -40,6 +40,7 @@ typedef struct gradcheckArgs_ {   // arguments of `ostrich gradcheck`
   double      tol;                // largest relative error per group that passes
   const char* ctrl;               // comma list of nu controls; NULL: zeros
   long        newton;             // Newton budget; -1: the model's
+  long        key;                // start keyframe; CLI_KEY_NONE: qpos0
   int         help;               // --help was given
 } gradcheckArgs;
 
@@ -54,7 +55,7 @@ static const cliOption kGradcheckOptions[] = {
   {"--wrt", CLI_ARG_STRING, offsetof(gradcheckArgs, wrt), "GROUP",
    "gradient group to compare: qpos, qvel, ctrl, params or all (default)"},
   {"--eps", CLI_ARG_POSITIVE, offsetof(gradcheckArgs, eps), "E",
-   "central difference step: E along the qpos tangent, E * max(1, |x|)\n"
+   "central difference step: E / 100 along the qpos tangent, E * max(1, |x|)\n"
    "for qvel, ctrl and each parameter (default 1e-4: smaller steps\n"
    "resolve the Newton tolerance's noise, e.g. 1e-6 gives 8e-3 on the\n"
    "servo arm's parameters where 1e-4 gives 5e-5)"},
@@ -66,6 +67,7 @@ static const cliOption kGradcheckOptions[] = {
   {"--ctrl", CLI_ARG_STRING, offsetof(gradcheckArgs, ctrl), "v1,v2,...",
    "exactly nu base controls; each step adds seeded noise U(-0.1, 0.1)\n"
    "(default 0)"},
+  CLI_KEY_OPTION(gradcheckArgs),
 };
 
 static const int kGradcheckNumOptions =
@@ -92,8 +94,10 @@ static void gradcheck_usage(FILE* f) {
     "\n"
     "Compare the adjoint gradient of a whole Ostrich rollout (ost_tapeStep, ost_tapeBackward)\n"
     "with central finite differences of the same rollout. The rollout runs N steps from qpos0\n"
-    "(or keyframe 0) with qvel0 + U(-0.1, 0.1) noise and controls --ctrl + U(-0.1, 0.1) noise\n"
-    "per step. The loss is a seeded linear-plus-quadratic function of every state:\n"
+    "and zero velocity (or keyframe K's qpos, qvel and act with --key K; a model's keyframes\n"
+    "are not used otherwise) with U(-0.1, 0.1) noise added to qvel and controls --ctrl +\n"
+    "U(-0.1, 0.1) noise per step. The loss is a seeded linear-plus-quadratic function of\n"
+    "every state:\n"
     "  L = sum_k (a_k . qpos_k + b_k . qvel_k) + 1/2 |qpos_N - q*|^2 + 1/2 |qvel_N - v*|^2.\n"
     "Groups: qpos (start qpos, perturbed along mj_integratePos's tangent: free and ball\n"
     "rotations in the local frame), qvel (start qvel), ctrl (each control of each step) and\n"
@@ -124,7 +128,8 @@ static void gradcheck_usage(FILE* f) {
     "\n"
     "Exit status: 0 every compared group within --tol; 1 a group over --tol, a non-finite\n"
     "gradient, or a failed step or backward pass; 2 bad usage, missing or malformed model,\n"
-    "model refused by Ostrich or not representable by the native geometry (gradients need it).\n");
+    "--key out of range, model refused by Ostrich or not representable by the native\n"
+    "geometry (gradients need it).\n");
 }
 
 
@@ -161,9 +166,10 @@ typedef struct gradcheckProblem_ {  // the rollout, its loss, and the gradients
   double   h;                     // step size (s)
   int      n;                     // steps N
   int      nparam;                // length of theta
+  long     key;                   // start keyframe; CLI_KEY_NONE: qpos0
   mjtNum*  qpos0;                 // start qpos                                         (nq)
   mjtNum*  qvel0;                 // start qvel                                         (nv)
-  mjtNum*  act0;                  // start act (keyframe 0 or zero)                     (na)
+  mjtNum*  act0;                  // start act (keyframe --key or zero)                 (na)
   mjtNum*  ctrl;                  // controls of each step                          (N x nu)
 
   // loss: linear weights per state, quadratic targets of the final state
@@ -242,14 +248,14 @@ static int gradcheck_setup(const gradcheckArgs* a, gradcheckProblem* p) {
     return 1;
   }
 
-  // start state: keyframe 0 if present, else qpos0; qvel noise
+  // start state: qpos0, or keyframe --key (cli_resetStart); qvel noise
   cliRng rng;
   cli_rngSeed(&rng, (unsigned long long)a->seed);
-  mju_copy(p->qpos0, m->nkey > 0 ? m->key_qpos : m->qpos0, nq);
-  if (m->nkey > 0) {
-    mju_copy(p->qvel0, m->key_qvel, nv);
-    mju_copy(p->act0, m->key_act, na);
-  }
+  p->key = a->key;
+  cli_resetStart(m, p->d, p->key);
+  mju_copy(p->qpos0, p->d->qpos, nq);
+  mju_copy(p->qvel0, p->d->qvel, nv);
+  mju_copy(p->act0, p->d->act, na);
   for (int i = 0; i < nv; i++) {
     p->qvel0[i] += cli_uniform(&rng, -0.1, 0.1);
   }
@@ -339,11 +345,12 @@ static double gradcheck_stateLoss(const gradcheckProblem* p, int k, const mjtNum
 
 //---------------------------------- Rollouts ------------------------------------------------------
 
-// Reset d to the start state x0 with qpos replaced by qpos (NULL: qpos0).
+// Reset d to the start state x0 (cli_resetStart, then x0's qpos, qvel, act) with qpos replaced
+// by qpos (NULL: x0's).
 static void gradcheck_reset(const gradcheckProblem* p, const mjtNum* qpos) {
   const mjModel* m = p->m;
   mjData* d = p->d;
-  mj_resetData(m, d);
+  cli_resetStart(m, d, p->key);
   mju_copy(d->qpos, qpos ? qpos : p->qpos0, m->nq);
   mju_copy(d->qvel, p->qvel0, m->nv);
   mju_copy(d->act, p->act0, m->na);
@@ -369,6 +376,13 @@ static int gradcheck_rollout(gradcheckProblem* p, ostTape* tape, const mjtNum* c
   for (int k = 0; k < p->n; k++) {
     mju_copy(d->ctrl, ctrl + k * nu, nu);
     int status = tape ? ost_tapeStep(tape, m, d) : ost_step(m, d);
+    if (OST_IS_WARNING(status)) {
+      // neither the adjoint nor the differences of an unsolved step mean anything
+      cli_error("gradcheck: step %d did not converge (residual %.3g m/s above tol): refusing "
+                "to compare the gradients of an unsolved rollout (raise --newton or lower --h)",
+                k + 1, ost_stats(d)->residual);
+      return 1;
+    }
     if (status != OST_OK || cli_mujocoError()) {
       cli_error("gradcheck: step %d failed: %s", k + 1,
                 status != OST_OK ? ost_lastError(d) : cli_mujocoError());
@@ -449,11 +463,15 @@ static int gradcheck_perturbed(gradcheckProblem* p, mjtNum* ctrl, mjtNum* qpos, 
       cli_error("gradcheck: out of memory");
       return 1;
     }
+    // a position step far below what a body moves in one step (g h^2 = 4e-5 m at 2 ms), so
+    // that both rollouts meet a resting contact alike: E / 100 (a step of 1e-4 m lifts a box
+    // resting on its floor clear of it for several steps; the + and - rollouts then differ in
+    // kind, not by a derivative)
     dq[c] = 1;
     mju_copy(qpos, p->qpos0, m->nq);
-    mj_integratePos(m, qpos, dq, s * eps);
+    mj_integratePos(m, qpos, dq, s * eps * 0.01);
     free(dq);
-    *step = eps;
+    *step = eps * 0.01;
   } else if (c < p->adr[GC_CTRL]) {
     entry = p->qvel0 + (c - p->adr[GC_QVEL]);
   } else if (c < p->adr[GC_PARAMS]) {
@@ -613,6 +631,11 @@ static int gradcheck_report(const gradcheckArgs* a, const gradcheckProblem* p, i
   cli_jsonString(stdout, a->model);
   printf(",\"steps\":%d,\"h\":", p->n);
   cli_jsonNumber(stdout, p->h);
+  if (a->key == CLI_KEY_NONE) {
+    printf(",\"key\":null");
+  } else {
+    printf(",\"key\":%ld", a->key);
+  }
   printf(",\"seed\":%ld,\"wrt\":", a->seed);
   cli_jsonString(stdout, a->wrt);
   printf(",\"eps\":%g,\"tol\":%g,\"loss\":", a->eps, a->tol);
@@ -656,7 +679,7 @@ static int gradcheck_report(const gradcheckArgs* a, const gradcheckProblem* p, i
 // `ostrich gradcheck MODEL.xml [options]`
 int gradcheck_main(int argc, char** argv) {
   gradcheckArgs a = {.steps = 10, .seed = 1, .wrt = "all", .eps = 1e-4, .tol = 1e-3,
-                     .newton = -1};
+                     .newton = -1, .key = CLI_KEY_NONE};
   int wrt[GC_NGROUP];
   if (cli_parseArgs("gradcheck", argc, argv, kGradcheckOptions, kGradcheckNumOptions, &a,
                     &a.model, &a.help)) {
@@ -673,7 +696,7 @@ int gradcheck_main(int argc, char** argv) {
   // load; Ostrich options; gradients need the native provider's model
   gradcheckProblem p = {0};
   char err[CLI_MSG_SZ] = "";
-  if (cli_loadModel(a.model, &p.m, &p.d) ||
+  if (cli_loadModel(a.model, &p.m, &p.d) || cli_checkKey(p.m, a.key) ||
       cli_setupOstrich(p.m, p.d, a.h, a.newton, -1, NULL, &p.h)) {
     gradcheck_free(&p);
     return CLI_USAGE;

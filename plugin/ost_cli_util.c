@@ -1,6 +1,6 @@
 // ost_cli_util.c: helpers shared by the subcommands of the `ostrich` tool (see ost_cli_util.h):
 // messages, MuJoCo's error handlers, parsing, the option table, JSON, the clock, the random
-// stream, model loading and Ostrich's option set-up.
+// stream, model loading, Ostrich's option set-up and acceptance test, and the start state.
 //
 // Invariant: nothing here writes to stdout or exits; a rejected input gives one "ostrich:" line
 // on stderr and a nonzero return.
@@ -318,36 +318,36 @@ int cli_loadModel(const char* path, mjModel** m, mjData** d) {
 }
 
 
+int cli_ostrichOptions(const mjModel* m, double h, long newton, long pcr, const char* geometry,
+                       ostOptions* opt, char* err, int err_sz) {
+  // options: defaults < model <custom> ostrich/* < command line
+  ost_defaultOptions(opt);
+  if (ost_readOptions(m, opt, err, err_sz) != OST_OK) {
+    return 1;
+  }
+  if (h > 0) {
+    opt->timestep = h;
+  }
+  if (newton >= 0) {
+    opt->newton_iter = (int)newton;
+  }
+  if (pcr >= 0) {
+    opt->pcr_iter = (int)pcr;
+  }
+  if (geometry) {
+    opt->geometry = strcmp(geometry, "native") ? OST_GEOMETRY_MUJOCO : OST_GEOMETRY_NATIVE;
+  }
+
+  // refuse models with features Ostrich (or the chosen geometry provider) does not model
+  return ost_checkStep(m, opt, err, err_sz) != OST_OK;
+}
+
+
 int cli_setupOstrich(const mjModel* m, mjData* d, double h, long newton, long pcr,
                      const char* geometry, double* h_out) {
   char err[CLI_MSG_SZ] = "";
   ostOptions opt;
-
-  // refuse models with features Ostrich does not model
-  if (ost_checkModel(m, err, sizeof(err)) != OST_OK) {
-    cli_error("%s", err);
-    return 1;
-  }
-
-  // options: defaults < model <custom> ostrich/* < command line
-  ost_defaultOptions(&opt);
-  if (ost_readOptions(m, &opt, err, sizeof(err)) != OST_OK) {
-    cli_error("%s", err);
-    return 1;
-  }
-  if (h > 0) {
-    opt.timestep = h;
-  }
-  if (newton >= 0) {
-    opt.newton_iter = (int)newton;
-  }
-  if (pcr >= 0) {
-    opt.pcr_iter = (int)pcr;
-  }
-  if (geometry) {
-    opt.geometry = strcmp(geometry, "native") ? OST_GEOMETRY_MUJOCO : OST_GEOMETRY_NATIVE;
-  }
-  if (opt.geometry == OST_GEOMETRY_NATIVE && ost_checkNative(m, err, sizeof(err)) != OST_OK) {
+  if (cli_ostrichOptions(m, h, newton, pcr, geometry, &opt, err, sizeof(err))) {
     cli_error("%s", err);
     return 1;
   }
@@ -360,6 +360,30 @@ int cli_setupOstrich(const mjModel* m, mjData* d, double h, long newton, long pc
   // options timestep 0 means opt.timestep
   *h_out = opt.timestep > 0 ? opt.timestep : m->opt.timestep;
   return 0;
+}
+
+
+//---------------------------------- Start state ---------------------------------------------------
+
+int cli_checkKey(const mjModel* m, long key) {
+  if (key == CLI_KEY_NONE || (key >= 0 && key < m->nkey)) {
+    return 0;
+  }
+  if (m->nkey == 0) {
+    cli_error("--key %ld: the model has no keyframes", key);
+  } else {
+    cli_error("--key %ld: the model has %d keyframe%s (0 to %d)", key, m->nkey,
+              m->nkey > 1 ? "s" : "", m->nkey - 1);
+  }
+  return 1;
+}
+
+
+void cli_resetStart(const mjModel* m, mjData* d, long key) {
+  mj_resetData(m, d);
+  if (key != CLI_KEY_NONE) {
+    mj_resetDataKeyframe(m, d, (int)key);
+  }
 }
 
 

@@ -1,7 +1,8 @@
 // ost_cli_util.h: helpers shared by the subcommands of the `ostrich` command-line tool
 // (ost_cli.c dispatches; ost_cli_synth.c, ost_cli_gradcheck.c): messages and MuJoCo's error
 // handlers, number and option-table parsing, JSON printing, the clock, a seeded random stream,
-// model loading and Ostrich's option set-up. Mirrors the shared part of MuJoCo's sample programs.
+// model loading, Ostrich's option set-up and acceptance test, and the start state (--key).
+// Mirrors the shared part of MuJoCo's sample programs.
 //
 // Invariant: every helper that rejects its input prints exactly one "ostrich: ..." line on stderr
 // and returns nonzero; none writes to stdout (each subcommand prints its one JSON line itself),
@@ -13,6 +14,8 @@
 #include <stdio.h>
 
 #include <mujoco/mujoco.h>
+
+#include "ostrich.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -145,11 +148,41 @@ double cli_uniform(cliRng* rng, double lo, double hi);
 // malformed XML, MuJoCo error) and return 1. *m and *d are NULL or valid either way.
 int cli_loadModel(const char* path, mjModel** m, mjData** d);
 
-// Configure Ostrich on (m, d): model check, <custom> ostrich/* options, then overrides: h > 0
-// (timestep), newton >= 0, pcr >= 0, geometry "mujoco" | "native" (NULL: the model's). Sets
-// *h_out to the step size. Return 0 on success, else print why and return 1.
+// Ostrich's options for m: defaults < the model's <custom> ostrich/* < overrides h > 0
+// (timestep), newton >= 0, pcr >= 0, geometry "mujoco" | "native" (NULL: the model's); then the
+// acceptance test of ost_step with them (ost_checkStep: every unsupported feature, model and
+// geometry provider). Return 0 if accepted, else 1 with the reason in err; prints nothing. This
+// is the one acceptance test of every subcommand (`sim` and `check` refuse with its message).
+int cli_ostrichOptions(const mjModel* m, double h, long newton, long pcr, const char* geometry,
+                       ostOptions* opt, char* err, int err_sz);
+
+// Configure Ostrich on (m, d): cli_ostrichOptions, then ost_setOptions. Sets *h_out to the step
+// size. Return 0 on success, else print why and return 1.
 int cli_setupOstrich(const mjModel* m, mjData* d, double h, long newton, long pcr,
                      const char* geometry, double* h_out);
+
+
+//---------------------------------- Start state ---------------------------------------------------
+// Every subcommand that steps one model from a start state takes --key K with the same meaning
+// (MuJoCo's convention): no --key starts from qpos0 (mj_resetData), --key K from keyframe K
+// (mj_resetDataKeyframe: time, qpos, qvel, act, ctrl, mocap). Keyframes are never used
+// implicitly; `--key 0` is how to start from a model's first keyframe.
+
+#define CLI_KEY_NONE -1L          // --key not given: start from qpos0
+
+// The --key entry of an option table whose argument struct has a `long key` field.
+#define CLI_KEY_OPTION(type)                                                          \
+  {"--key", CLI_ARG_COUNT, offsetof(type, key), "K",                                 \
+   "start from keyframe K (mj_resetDataKeyframe: time, qpos, qvel, act,\n"          \
+   "ctrl, mocap); default: qpos0 and zero velocity (mj_resetData)"}
+
+// Check --key against m before any work: CLI_KEY_NONE, or 0 <= key < m->nkey. Return 0 if
+// valid, else print why and return 1.
+int cli_checkKey(const mjModel* m, long key);
+
+// Reset d to the start state: mj_resetData, then keyframe key unless key is CLI_KEY_NONE
+// (checked by cli_checkKey first).
+void cli_resetStart(const mjModel* m, mjData* d, long key);
 
 // Return 1 if qpos or qvel has a non-finite entry, 2 if MuJoCo found one and reset the state
 // (mj_checkPos/Vel/Acc warn and reset, so the bad values never reach the caller), else 0.

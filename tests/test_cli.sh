@@ -3,8 +3,10 @@
 # usage: bash tests/test_cli.sh PATH/TO/ostrich PATH/TO/mjcf_models
 # Checks usage errors (exit 2, one "ostrich:" line on stderr, nothing on stdout), then runs
 # `ostrich sim` on box_plane.xml (both engines) and robot_pallet.xml and checks the JSON line and
-# the CSV; `check`; `synth` (self-test, the mujoco engine, then with the gradient API the ostrich
-# engine) and `gradcheck`. Every check runs; the script exits 1 if any failed.
+# the CSV; `check`; refusals that name every unsupported feature (the same from sim and check);
+# the start state (qpos0, or --key K); `synth` (self-test, the mujoco engine, then with the
+# gradient API the ostrich engine) and `gradcheck`. Every check runs; the script exits 1 if any
+# failed.
 set -euo pipefail
 
 if [[ $# -ne 2 ]]; then
@@ -107,7 +109,7 @@ EOF
 
 KEYS='["engine","model","h","steps","wall_s","nan","max_penetration","mean_residual",
        "mean_newton_iter","final_qpos"]'
-OPTIONS=(--engine --h --duration --steps --ctrl --newton --pcr --geometry --out)
+OPTIONS=(--engine --h --duration --steps --ctrl --newton --pcr --geometry --key --out)
 BOX=$MODELS/box_plane.xml
 PALLET=$MODELS/robot_pallet.xml
 
@@ -224,6 +226,71 @@ expect_py "terrain_mesh: drives about 4 m along its line over the mesh" \
   'j["nan"] is False and 3.8 < j["final_qpos"][0] < 4.5 and abs(j["final_qpos"][1]) < 0.3'
 
 
+#---------------------------------- refusals: every feature, the same in sim and check ------------
+# unsupported_three_features.xml has frictionloss on two hinges, a limited tendon and a filter
+# actuator: one refusal names all three (the hinges in one entry); `check` refuses it with the
+# same stderr line and exit code as `sim`, and says so in its JSON line (accepted false).
+
+TESTMODELS=$(cd "$(dirname "$0")" && pwd)/models
+THREE=$TESTMODELS/unsupported_three_features.xml
+run sim "$THREE" --steps 1
+expect_rc 2 "sim refuses a model with three unsupported features"
+cp "$tmp/err" "$tmp/sim_refusal"
+if grep -q "(3 features)" "$tmp/err" && grep -q "2 joints ('shoulder', 'elbow'): frictionloss" \
+     "$tmp/err" && grep -q "tendon 'coupling': limits" "$tmp/err" \
+     && grep -q "actuator 'slow_motor': activation dynamics (dyntype filter)" "$tmp/err"; then
+  pass "sim's refusal names all three features and their elements"
+else
+  fail "sim's refusal names all three features and their elements"
+fi
+run check "$THREE"
+expect_rc 2 "check refuses it too"
+if cmp -s "$tmp/err" "$tmp/sim_refusal"; then
+  pass "check's stderr equals sim's: $(head -c 100 "$tmp/err")..."
+else
+  fail "check's stderr equals sim's"
+fi
+expect_py "check's JSON: accepted false, the refusal is sim's message" \
+  'j["accepted"] is False and j["ok"] is False and j["native"] is None and
+   "ostrich: " + j["refusal"] + "\n" == open("'"$tmp/sim_refusal"'").read()'
+run check "$PALLET" --states 2
+expect_py "check on an accepted model: accepted true, native true, refusal null" \
+  'j["accepted"] is True and j["native"] is True and j["refusal"] is None and j["ok"] is True'
+
+
+#---------------------------------- start state: qpos0, or --key K --------------------------------
+# pendulum_two_keyframes.xml: qpos0 = 0 at rest; keyframe 1 is qpos 1.0, qvel 0.5. Without --key
+# every subcommand starts from qpos0 (the same result as the model with its keyframes removed);
+# --key 1 starts from keyframe 1 (the CSV's first row is the keyframe); --key 5 is refused
+# before any work.
+
+KEYS2=$TESTMODELS/pendulum_two_keyframes.xml
+python3 -c 'import re, sys; open(sys.argv[2], "w").write(re.sub(r"<keyframe>.*</keyframe>", "",
+  open(sys.argv[1]).read(), flags=re.S))' "$KEYS2" "$tmp/nokey.xml"
+for engine in ostrich mujoco; do
+  run sim "$KEYS2" --engine "$engine" --steps 10 --key 1 --out "$tmp/k1.csv"
+  expect_rc 0 "sim --key 1 ($engine)"
+  expect_py "sim --key 1 ($engine): first CSV row is keyframe 1 (t 0, qpos 1, qvel 0.5), key 1" \
+    'j["key"] == 1 and rows[1] == ["0", "1", "0.5"] and j["steps"] == 10' "$tmp/k1.csv"
+  run sim "$tmp/nokey.xml" --engine "$engine" --steps 10
+  cp "$tmp/out" "$tmp/nokey.json"
+  run sim "$KEYS2" --engine "$engine" --steps 10 --out "$tmp/k0.csv"
+  expect_py "sim without --key ($engine): starts from qpos0 (0, at rest), as without keyframes" \
+    'j["key"] is None and rows[1] == ["0", "0", "0"] and
+     j["final_qpos"] == json.load(open("'"$tmp/nokey.json"'"))["final_qpos"]' "$tmp/k0.csv"
+done
+expect_usage_error "sim --key 5 on a model with two keyframes" sim "$KEYS2" --key 5
+if grep -q "2 keyframes" "$tmp/err"; then pass "--key 5: names the keyframe count"; else
+  fail "--key 5: names the keyframe count"; fi
+expect_usage_error "sim --key 0 on a model without keyframes" sim "$BOX" --key 0
+expect_usage_error "sim --key -1" sim "$KEYS2" --key -1
+expect_usage_error "gradcheck --key 5" gradcheck "$KEYS2" --key 5
+run sim --help
+expect_mentions "sim --help documents --key" "--key K" "qpos0"
+run gradcheck --help
+expect_mentions "gradcheck --help documents --key" "--key K" "qpos0"
+
+
 #---------------------------------- synth and gradcheck: no gradient at run time -----------------
 # Usage errors, help, the loss's derivative self-test, and the mujoco engine (finite differences
 # of mj_step rollouts), none of which calls the gradient API (the binary still links it).
@@ -231,7 +298,7 @@ expect_py "terrain_mesh: drives about 4 m along its line over the mesh" \
 BOXM=$MODELS/robot_box.xml
 SYNTH_OPTIONS=(--trials --iters --seed --lr --engine --grad --fd --eps --csv --plot --model
                --selftest)
-GRADCHECK_OPTIONS=(--steps --h --seed --wrt --eps --tol --newton --ctrl)
+GRADCHECK_OPTIONS=(--steps --h --seed --wrt --eps --tol --newton --ctrl --key)
 run synth --help
 expect_rc 0 "ostrich synth --help"
 expect_mentions "ostrich synth --help mentions every option" "${SYNTH_OPTIONS[@]}"
@@ -309,6 +376,18 @@ run gradcheck "$MODELS/arm_position_servo.xml" --ctrl 0.1,0.2,0.3
 expect_rc 0 "gradcheck arm_position_servo (h = 0.1 s, ctrl and servo gains)"
 expect_py "gradcheck arm_position_servo: ok, 30 controls compared" \
   'j["ok"] is True and j["n_ctrl"] == 30 and j["ctrl"] < 1e-6'
+run gradcheck "$tmp/nokey.xml" --steps 5
+cp "$tmp/out" "$tmp/gc_nokey.json"
+run gradcheck "$KEYS2" --steps 5
+expect_rc 0 "gradcheck without --key on a model with keyframes"
+expect_py "gradcheck without --key: starts from qpos0 (the loss of the model without keyframes)" \
+  'j["key"] is None and j["ok"] is True and
+   j["loss"] == json.load(open("'"$tmp/gc_nokey.json"'"))["loss"]'
+run gradcheck "$KEYS2" --steps 5 --key 1
+expect_rc 0 "gradcheck --key 1: adjoint equals central differences from keyframe 1"
+expect_py "gradcheck --key 1: another start state (another loss), key 1 in the JSON line" \
+  'j["key"] == 1 and j["ok"] is True and
+   j["loss"] != json.load(open("'"$tmp/gc_nokey.json"'"))["loss"]'
 run gradcheck "$MODELS/pendulum_chain.xml" --wrt qvel --tol 1e-15
 expect_rc 1 "gradcheck with an impossible --tol fails"
 expect_py "gradcheck --tol 1e-15: JSON printed with ok false, only qvel compared" \

@@ -35,6 +35,69 @@ START_TEST(test_unsupportedFeature) {
 }
 END_TEST
 
+// a model with three unsupported features gets all three in one refusal, grouped per feature
+// (the frictionloss of both hinges is one entry), as a message and as ostRefusal records; a
+// message that does not fit ends cleanly with "... and K more"
+START_TEST(test_everyUnsupportedFeature) {
+  ost_fixtureSetup();
+  char path[1024], err[1000];
+  snprintf(path, sizeof(path), "%s/../tests/models/unsupported_three_features.xml",
+           OST_MODEL_DIR);
+  mjModel* m = mj_loadXML(path, NULL, err, sizeof(err));
+  ck_assert_ptr_nonnull(m);
+  ck_assert_int_eq(ost_checkModel(m, err, sizeof(err)), OST_ERR_MODEL);
+  const char* want[] = {"(3 features)", "2 joints ('shoulder', 'elbow'): frictionloss",
+                        "tendon 'coupling': limits",
+                        "actuator 'slow_motor': activation dynamics (dyntype filter)"};
+  for (int i = 0; i < 4; i++) {
+    ck_assert_msg(strstr(err, want[i]), "'%s' not in: %s", want[i], err);
+  }
+
+  // the records: one per feature, in the order of the message
+  ostRefusal r[4];
+  ck_assert_int_eq(ost_checkModelList(m, r, 4), 3);
+  ck_assert_str_eq(r[0].what, "joint");
+  ck_assert_int_eq(r[0].count, 2);
+  ck_assert_str_eq(r[0].name[0], "shoulder");
+  ck_assert_str_eq(r[0].name[1], "elbow");
+  ck_assert_str_eq(r[1].what, "tendon");
+  ck_assert_str_eq(r[1].name[0], "coupling");
+  ck_assert_str_eq(r[2].what, "actuator");
+  ck_assert_ptr_nonnull(strstr(r[2].feature, "dyntype filter"));
+  ck_assert_int_eq(ost_checkModelList(m, r, 1), 3);  // counted beyond nout
+  ck_assert_int_eq(ost_checkModelList(NULL, r, 1), -1);
+
+  // ost_checkStep (what ost_step checks) gives the same message with the mujoco provider, and
+  // the step refuses with it
+  ostOptions o;
+  char step_err[1000];
+  ost_defaultOptions(&o);
+  ck_assert_int_eq(ost_checkStep(m, &o, step_err, sizeof(step_err)), OST_ERR_MODEL);
+  ck_assert_str_eq(step_err, err);
+  mjData* d = mj_makeData(m);
+  ck_assert_int_eq(ost_step(m, d), OST_ERR_MODEL);
+  ck_assert_str_eq(ost_lastError(d), err);
+  ost_deleteData(d);
+
+  // the native provider adds its own refusal of the tendon (native has no tendons)
+  o.geometry = OST_GEOMETRY_NATIVE;
+  ck_assert_int_eq(ost_checkStep(m, &o, step_err, sizeof(step_err)), OST_ERR_MODEL);
+  ck_assert_msg(strstr(step_err, "(4 features)") && strstr(step_err, "tendons, which the native"),
+                "%s", step_err);
+
+  // a short buffer: whole entries, then "... and K more", never a cut entry
+  char small[140];
+  ck_assert_int_eq(ost_checkModel(m, small, sizeof(small)), OST_ERR_MODEL);
+  ck_assert_msg(strstr(small, "frictionloss") && strstr(small, "; ... and 2 more"), "%s", small);
+  ck_assert_int_lt(strlen(small), sizeof(small));
+  char tiny[64];
+  ck_assert_int_eq(ost_checkModel(m, tiny, sizeof(tiny)), OST_ERR_MODEL);
+  ck_assert_msg(strstr(tiny, "... and 3 more"), "%s", tiny);
+  mj_deleteModel(m);
+}
+END_TEST
+
+
 START_TEST(test_nonFiniteInput) {
   ost_fixtureSetup();
   mjModel* m = ost_fixtureLoadModel("wheeled_robot.xml");
@@ -119,6 +182,7 @@ int main(void) {
   Suite* s = suite_create("ost_errors");
   TCase* tc = tcase_create("errors");
   tcase_add_test(tc, test_unsupportedFeature);
+  tcase_add_test(tc, test_everyUnsupportedFeature);
   tcase_add_test(tc, test_nonFiniteInput);
   tcase_add_test(tc, test_contactOverflow);
   tcase_add_test(tc, test_badOptions);
