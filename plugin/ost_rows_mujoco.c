@@ -167,11 +167,14 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
   mj_makeConstraint(m, d);
   if (d->warning[mjWARN_CONTACTFULL].number != warn_con) {
     return ost_fail(c, OST_ERR_OVERFLOW, "contact capacity exceeded: more than nconmax=%d "
-                    "contacts (raise <size nconmax=...>)", m->nconmax);
+                    "contacts with the look-ahead (ostrich/margin %g m widens every margin, so "
+                    "Ostrich sees contacts MuJoCo's step does not): raise <size nconmax=...> or "
+                    "lower ostrich/margin", m->nconmax, c->opt.margin);
   }
   if (d->warning[mjWARN_CNSTRFULL].number != warn_efc) {
     return ost_fail(c, OST_ERR_OVERFLOW, "constraint capacity exceeded: more than njmax=%d "
-                    "rows (raise <size njmax=...>)", m->njmax);
+                    "rows with the look-ahead (ostrich/margin %g m widens every margin): raise "
+                    "<size njmax=...> or lower ostrich/margin", m->njmax, c->opt.margin);
   }
 #define NEED_ROWS(k)                                                                   \
   if (n + (k) > w->nrow_max) {                                                         \

@@ -10,7 +10,9 @@ int ost_rowsNative(ostContext* c, mjData* d, mjtNum h) {
                              h)) {
   case OST_ROWS_CONTACT_OVERFLOW:
     return ost_fail(c, OST_ERR_OVERFLOW, "contact capacity exceeded: more than nconmax=%d "
-                    "contacts (raise <size nconmax=...>)", c->mo->nconmax);
+                    "contacts with the look-ahead (ostrich/margin %g m widens every margin, so "
+                    "Ostrich sees contacts MuJoCo's step does not): raise <size nconmax=...> or "
+                    "lower ostrich/margin", c->mo->nconmax, c->opt.margin);
   case OST_ROWS_ROW_OVERFLOW:
     return ost_fail(c, OST_ERR_OVERFLOW, "row capacity %d exceeded", c->world.nrow_max);
   default:

@@ -137,4 +137,16 @@ sed 's/^/  stderr: /' "$WORK/f.err"
 assert_ran f 50
 assert_ostrich f box_plane 50
 
+# (g) a contact capacity overflow (20 spheres, nconmax 5): every failed step is counted, the first
+# is named with its cause, and each is taken by stock MuJoCo instead of freezing the state
+OVERFLOW="$MODELS/../tests/models/too_many_contacts.xml"
+run g "$PRELOAD" "" "$OVERFLOW" 200 1
+assert_ran g 200
+grep -q '^ostrich: step at t = .* failed: contact capacity exceeded.*look-ahead.*taken by stock MuJoCo' \
+  "$WORK/g.err" || fail "(g) no 'failed: contact capacity exceeded ... look-ahead' message"
+[[ $(grep -c 'failed: contact capacity' "$WORK/g.err") -eq 1 ]] \
+  || fail "(g) the failure message should be printed once, then counted"
+grep -Eq '^ostrich: 200 steps, .* 200 failed and stepped by stock MuJoCo \(last: contact capacity' \
+  "$WORK/g.err" || fail "(g) the summary does not count 200 failed steps stepped by stock MuJoCo"
+
 echo "test_preload: all checks passed"
