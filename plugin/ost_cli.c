@@ -253,7 +253,7 @@ static int sim_stepOnce(simRun* r, long k) {
   }
   r->wall += cli_now() - start;
 
-  if (status != OST_OK) {
+  if (status != OST_OK && !OST_IS_WARNING(status)) {
     cli_error("step %ld failed: %s", k + 1, ost_lastError(r->d));
     return 1;
   }
@@ -310,6 +310,9 @@ static int sim_loop(simRun* r) {
     sim_writeHeader(r);
     sim_writeRow(r);
   }
+  // the start state's own penetration counts: a model that starts inside its floor says so
+  mj_forward(r->m, r->d);
+  r->max_penetration = ost_maxPenetration(r->m, r->d);
   for (long k = 0; k < r->nstep; k++) {
     if (sim_stepOnce(r, k)) {
       return CLI_FAIL;
@@ -345,6 +348,17 @@ static void sim_report(const simArgs* a, const simRun* r) {
   cli_jsonNumber(stdout, r->sum_residual / n);
   printf(",\"mean_newton_iter\":");
   cli_jsonNumber(stdout, r->sum_iter / n);
+  // Ostrich's counts of steps not solved to tolerance and of bounded depenetration
+  const ostTotals* t = r->ostrich ? ost_totals(r->d) : NULL;
+  if (t) {
+    printf(",\"unconverged_steps\":%ld,\"worst_residual\":", t->unconverged);
+    cli_jsonNumber(stdout, t->worst_residual);
+    printf(",\"depenetrated_steps\":%ld,\"worst_initial_violation\":", t->depenetrated);
+    cli_jsonNumber(stdout, t->worst_initial_violation);
+  } else {
+    printf(",\"unconverged_steps\":null,\"worst_residual\":null,\"depenetrated_steps\":null,"
+           "\"worst_initial_violation\":null");
+  }
   if (a->key == CLI_KEY_NONE) {
     printf(",\"key\":null");
   } else {

@@ -167,6 +167,26 @@ expect_py "box_plane: the box rests (|z_final - z_0| < 1e-3)" \
   "$tmp/a.csv"
 
 
+expect_py "box_plane: every step converged, none depenetrated" \
+  'j["unconverged_steps"] == 0 and j["worst_residual"] <= 1e-10 and j["depenetrated_steps"] == 0'
+
+# a box placed 5 cm into its floor: the start depth is reported, it is removed at the bounded
+# depenetration speed (1 m/s: 25 steps of 2 mm at h = 2 ms), and the box never moves faster
+sed 's|<body name="box" pos="0 0 0.1">|<body name="box" pos="0 0 0.05">|' "$BOX" > "$tmp/sunk.xml"
+run sim "$tmp/sunk.xml" --steps 30 --out "$tmp/sunk.csv"
+expect_rc 0 "sunk box, ostrich, 30 steps"
+expect_py "sunk box: start depth 0.05 m reported, 25 bounded steps, speeds <= 1 m/s" \
+  'abs(j["max_penetration"] - 0.05) < 1e-6 and j["depenetrated_steps"] == 25 and
+   abs(j["worst_initial_violation"] - 0.05) < 1e-6 and
+   max(abs(float(v)) for r in rows[1:] for v in r[8:11]) <= 1 + 1e-6' "$tmp/sunk.csv"
+
+# a Newton budget of 1 on the pallet at h = 0.1 s does not reach tol: counted, not hidden
+run sim "$PALLET" --h 0.1 --steps 5 --ctrl 3,3,3 --newton 1
+expect_rc 0 "pallet, newton 1: the steps are taken"
+expect_py "pallet, newton 1: unconverged steps counted with their worst residual" \
+  'j["unconverged_steps"] > 0 and j["worst_residual"] > 1e-10'
+
+
 #---------------------------------- box on a plane (mujoco) ---------------------------------------
 
 run sim "$BOX" --engine mujoco --h 0.002 --steps 100
