@@ -1,7 +1,7 @@
 // ost_adjoint.h: the residual of one Ostrich step as a function of all its inputs, written once
 // for any scalar type, so that plugin/ost_adjoint_dual.cc can differentiate it exactly with
 // forward-mode dual numbers (ostNum = ostDual<N>, core/ost_dual.h) and the implicit function
-// theorem gives the step's gradients (DESIGN.md section 2; paper section III-D). Mirrors
+// theorem gives the step's gradients (core/README.md section 2; paper section III-D). Mirrors
 // engine_derivative.c's role; also the exponential-map integration of qpos (mj_integratePos)
 // and its first-order inverse, which define the tangent space of ball and free joints.
 //

@@ -4,7 +4,7 @@
 // (the CPU batch) and cuda/ost_batch_adjoint.cu (the CUDA batch). Each pass seeds OSTX_CHUNK input
 // directions and reads their derivatives off every output. Nothing here is hand-differentiated:
 // contact points, normals and distances, the mass matrix and bias forces, and ball/free joints'
-// exponential map all enter exactly (DESIGN.md section 2).
+// exponential map all enter exactly (core/README.md section 2).
 // No allocation: the work's arrays live in one caller-provided block (ostx_jacWorkSize bytes).
 // Invariant: reads the step's inputs; writes only the work block, G and the model's parameter
 // derivatives (only when parameters are seeded, st->nparam > 0).

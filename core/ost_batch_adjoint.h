@@ -1,5 +1,5 @@
 // ost_batch_adjoint.h: the backward pass of a batch rollout, world by world, in the double
-// build (DESIGN.md section 2; paper section III-D). A world's pass runs in an adjoint lane
+// build (core/README.md section 2; paper section III-D). A world's pass runs in an adjoint lane
 // (core/ost_adjoint.h's OST_ADJOINT_LANE_ARRAYS) in four phases, which the CPU batch calls in
 // order for each world and the CUDA batch launches as kernels over a wave of worlds:
 //   1 osti_adjointForward  replay the rollout from the world's start up to its last segment,

@@ -1,4 +1,4 @@
-// ost_constraint.h: constraint rows of one Ostrich step (DESIGN.md section 1; paper eq. 3-7).
+// ost_constraint.h: constraint rows of one Ostrich step (core/README.md section 1; paper eq. 3-7).
 // Mirrors engine_core_constraint.c: the row description, the Fischer-Burmeister (FB) function,
 // the projection of multipliers onto their admissible
 // sets, and the matching of multipliers across Newton iterates whose contact sets differ.

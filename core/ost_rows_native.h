@@ -183,7 +183,7 @@ OST_HD int osti_nativeIterate(const ostModel* m, ostKin* k, ostWorld* w, const o
 
 // the start of a step at (q-, u-): Mt = M(q-) + h D into w->M (unfactored) and the explicit
 // forces f = qfrc_passive - qfrc_bias + explicit actuator forces + qfrc_applied (+ J' xfrc)
-// into w->qfrc_explicit (DESIGN.md section 1). qfrc_applied and xfrc_applied may be NULL.
+// into w->qfrc_explicit (core/README.md section 1). qfrc_applied and xfrc_applied may be NULL.
 OST_HD void osti_nativeStart(const ostModel* m, ostKin* k, ostWorld* w, const ostNum* qpos,
                              const ostNum* qvel, const ostNum* ctrl, const ostNum* qfrc_applied,
                              const ostNum* xfrc_applied, ostNum h) {

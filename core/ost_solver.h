@@ -1,4 +1,4 @@
-// ost_solver.h: the per-world non-smooth Newton step of Ostrich (DESIGN.md section 1; paper
+// ost_solver.h: the per-world non-smooth Newton step of Ostrich (core/README.md section 1; paper
 // section III-C). Mirrors engine_solver.c (mj_solNewton): residual evaluation at an iterate,
 // the Schur-complement operator applied matrix-free, preconditioned conjugate residual (PCR)
 // with a Jacobi preconditioner, and the Newton update with projection. Where a sliding contact

@@ -1,4 +1,4 @@
-// ost_step.h: one Ostrich step of one world (DESIGN.md section 1; paper section III-C), the
+// ost_step.h: one Ostrich step of one world (core/README.md section 1; paper section III-C), the
 // driver above ost_solver.h. Mirrors engine_forward.c's mj_step for the implicit step:
 //   osti_newton      the non-smooth Newton loop with a backtracking line search on the merit
 //                    and best-iterate backtracking, for any geometry provider (a callback:

@@ -1,4 +1,4 @@
-// ost_adjoint.c: gradients of Ostrich steps by the implicit function theorem (DESIGN.md
+// ost_adjoint.c: gradients of Ostrich steps by the implicit function theorem (core/README.md
 // section 2; paper section III-D; mirrors engine_derivative.c). Each committed substep is
 // recorded at commit (ost_recordSubstep: state, controls and the converged forces, nothing of
 // the Newton or PCR iterates). Its backward pass takes the exact Jacobian of the step's

@@ -2,7 +2,7 @@
 // engine_forward.c). One step: stock position and velocity stages at (q-, u-) and mjcb_control;
 // explicit forces f and Mt = M + hD at q-; the non-smooth Newton loop of core/ost_solver.h with
 // MuJoCo's geometry at every iterate q = q- (+) h u; best-iterate backtracking; commit; and
-// publication of mjData at q+ (DESIGN.md section 4).
+// publication of mjData at q+ (core/README.md section 4).
 // Invariant: on any failure the state (qpos, qvel, act, time) is left as it was before the step
 // and a message is recorded; the library never exits or calls mju_error.
 #include <math.h>

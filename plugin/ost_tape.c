@@ -1,4 +1,4 @@
-// ost_tape.c: recording a rollout and its backward pass (DESIGN.md section 2, "Memory").
+// ost_tape.c: recording a rollout and its backward pass (core/README.md section 2, "Memory").
 // Without checkpoints the tape keeps every substep's record (ost_adjoint.c: state, controls and
 // converged forces, a fixed number of bytes). With checkpoint S it keeps, per step, only the
 // inputs (controls and applied forces), and every S steps the state and the warm start; the

@@ -198,7 +198,8 @@ int ost_step(const mjModel* m, mjData* d);
 // First half: stock position and velocity stages at (q-, u-), then mjcb_control (= mj_step1).
 int ost_step1(const mjModel* m, mjData* d);
 
-// Second half: Ostrich solve, commit (q+, u+), and publish mjData at q+ (DESIGN.md section 4).
+// Second half: Ostrich solve, commit (q+, u+), and publish mjData at q+ (core/README.md
+// section 4).
 int ost_step2(const mjModel* m, mjData* d);
 
 // Statistics of the last step on d (NULL if d was never stepped by Ostrich).
@@ -227,9 +228,9 @@ void ost_deleteData(mjData* d);
 
 //---------------------------------- Gradients -----------------------------------------------------
 // Exact gradients of Ostrich steps by the implicit function theorem at each step's solution
-// (DESIGN.md section 2). Conventions, as mjd_transitionFD: a qpos cotangent or perturbation is a
-// tangent vector of nv entries (mj_integratePos / mj_differentiatePos: ball and free rotations
-// in the local frame), qvel and ctrl are plain vectors. Gradients need a model that the native
+// (core/README.md section 2). Conventions, as mjd_transitionFD: a qpos cotangent or perturbation is
+// a tangent vector of nv entries (mj_integratePos / mj_differentiatePos: ball and free rotations in
+// the local frame), qvel and ctrl are plain vectors. Gradients need a model that the native
 // geometry provider can represent (ost_checkNative): the derivatives of kinematics, dynamics and
 // contact geometry come from core's native code in forward-mode dual numbers, whichever provider
 // ran the forward step.
