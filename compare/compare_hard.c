@@ -312,7 +312,8 @@ static hardStatus hard_step(const mjModel* m, mjData* d, hardRun* r) {
     mj_step(m, d);
   }
   r->wall += cli_now() - start;
-  if (status != OST_OK) {
+  // a warning (OST_WARN_NOT_CONVERGED) is a step taken; it is counted below as unconverged
+  if (status != OST_OK && !OST_IS_WARNING(status)) {
     snprintf(why, sizeof(why), "ost_step failed: %s", ost_lastError(d));
     hard_stopped(r, r->steps + 1, why);
     return HARD_FAILED;
