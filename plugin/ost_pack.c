@@ -424,12 +424,13 @@ int ost_packCorePairs(const mjModel* m, ostModel* pairs, void** block) {
   }
   *block = b;
   pairs->s.npair = n;
-  pairs->pair_geom1 = (int*)b;
-  pairs->pair_geom2 = pairs->pair_geom1 + n;
-  pairs->pair_condim = pairs->pair_geom2 + n;
-  pairs->pair_margin = (ostNum*)(b + ints);
+  // the ostNum arrays first: malloc aligns them, and after 3 n ints they would not be for odd n
+  pairs->pair_margin = (ostNum*)b;
   pairs->pair_gap = pairs->pair_margin + n;
   pairs->pair_friction = pairs->pair_gap + n;
+  pairs->pair_geom1 = (int*)(b + nums);
+  pairs->pair_geom2 = pairs->pair_geom1 + n;
+  pairs->pair_condim = pairs->pair_geom2 + n;
   candidatePairs(m, pairs, 1);
   return OST_OK;
 }
