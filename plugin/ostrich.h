@@ -19,6 +19,17 @@ extern "C" {
 #endif
 
 
+//---------------------------------- Export --------------------------------------------------------
+
+// OSTAPI marks every public function. libostrich.so is compiled with hidden visibility, so only
+// declarations that carry it are exported; a new public function needs it too.
+#if defined(__GNUC__) || defined(__clang__)
+  #define OSTAPI __attribute__((visibility("default")))
+#else
+  #define OSTAPI
+#endif
+
+
 //---------------------------------- Status --------------------------------------------------------
 
 typedef enum ostStatus_ {         // result of a host call
@@ -85,13 +96,13 @@ typedef enum ostGeometry_ {       // geometry providers (option `geometry`)
 } ostGeometry;
 
 // Set default options.
-void ost_defaultOptions(ostOptions* opt);
+OSTAPI void ost_defaultOptions(ostOptions* opt);
 
 // Read options from the model's <custom> numerics named "ostrich/*"; unknown names are an error.
-int ost_readOptions(const mjModel* m, ostOptions* opt, char* err, int err_sz);
+OSTAPI int ost_readOptions(const mjModel* m, ostOptions* opt, char* err, int err_sz);
 
 // Override the options used for steps of this mjData (after ost_readOptions of the model).
-int ost_setOptions(const mjModel* m, mjData* d, const ostOptions* opt);
+OSTAPI int ost_setOptions(const mjModel* m, mjData* d, const ostOptions* opt);
 
 
 //---------------------------------- Model check ---------------------------------------------------
@@ -112,27 +123,27 @@ typedef struct ostRefusal_ {      // one unsupported feature and the elements th
 
 // Return OST_OK if Ostrich models every feature of m, else OST_ERR_MODEL and name every
 // unsupported feature with its elements.
-int ost_checkModel(const mjModel* m, char* err, int err_sz);
+OSTAPI int ost_checkModel(const mjModel* m, char* err, int err_sz);
 
 // Every feature of m that Ostrich does not model into out[0 .. nout); return how many there are
 // (0: none; beyond nout they are counted, not stored), -1 for a bad argument.
-int ost_checkModelList(const mjModel* m, ostRefusal* out, int nout);
+OSTAPI int ost_checkModelList(const mjModel* m, ostRefusal* out, int nout);
 
 // Return OST_OK if the native geometry provider can represent m, else OST_ERR_MODEL and name
 // every geom pair, joint or feature it cannot do.
-int ost_checkNative(const mjModel* m, char* err, int err_sz);
+OSTAPI int ost_checkNative(const mjModel* m, char* err, int err_sz);
 
 // ost_checkNative's refusals as a list, like ost_checkModelList.
-int ost_checkNativeList(const mjModel* m, ostRefusal* out, int nout);
+OSTAPI int ost_checkNativeList(const mjModel* m, ostRefusal* out, int nout);
 
 // Return OST_OK if ost_step accepts m with options opt, else OST_ERR_MODEL and one message that
 // names every refusal: ost_checkModel's, then those of opt's geometry provider (native:
 // ost_checkNative's; mujoco: no ostrich/terrain mesh, height fields only with margin 0).
-int ost_checkStep(const mjModel* m, const ostOptions* opt, char* err, int err_sz);
+OSTAPI int ost_checkStep(const mjModel* m, const ostOptions* opt, char* err, int err_sz);
 
 // Geom id of the mesh that <custom><text name="ostrich/terrain" data="GEOM"/> marks as a
 // non-convex terrain surface (native provider only), or -1 if none.
-int ost_terrainGeom(const mjModel* m);
+OSTAPI int ost_terrainGeom(const mjModel* m);
 
 // Largest disagreements of the native provider with MuJoCo (ost_compareNative).
 typedef struct ostNativeReport_ {
@@ -154,8 +165,8 @@ typedef struct ostNativeReport_ {
 // Compare native geometry with MuJoCo at every keyframe and nstate random configurations
 // (seeded): tolerances 1e-10 relative (kinematics, dynamics), 1e-9 (analytic contacts) and
 // 1e-6 (MPR contacts); r->ok says whether all hold.
-int ost_compareNative(const mjModel* m, int nstate, unsigned seed, ostNativeReport* r,
-                      char* err, int err_sz);
+OSTAPI int ost_compareNative(const mjModel* m, int nstate, unsigned seed, ostNativeReport* r,
+                             char* err, int err_sz);
 
 
 //---------------------------------- Stepping ------------------------------------------------------
@@ -193,37 +204,37 @@ typedef struct ostTotals_ {
 // Advance one step with Ostrich (mj_step semantics, mjcb_control included). Returns OST_OK,
 // a warning (OST_IS_WARNING: the state advanced, but not to tolerance) or an error (the state
 // is left as it was).
-int ost_step(const mjModel* m, mjData* d);
+OSTAPI int ost_step(const mjModel* m, mjData* d);
 
 // First half: stock position and velocity stages at (q-, u-), then mjcb_control (= mj_step1).
-int ost_step1(const mjModel* m, mjData* d);
+OSTAPI int ost_step1(const mjModel* m, mjData* d);
 
 // Second half: Ostrich solve, commit (q+, u+), and publish mjData at q+ (core/README.md
 // section 4).
-int ost_step2(const mjModel* m, mjData* d);
+OSTAPI int ost_step2(const mjModel* m, mjData* d);
 
 // Statistics of the last step on d (NULL if d was never stepped by Ostrich).
-const ostStats* ost_stats(const mjData* d);
+OSTAPI const ostStats* ost_stats(const mjData* d);
 
 // Counts of d's steps and warnings (NULL if d was never stepped by Ostrich).
-const ostTotals* ost_totals(const mjData* d);
+OSTAPI const ostTotals* ost_totals(const mjData* d);
 
 // Zero d's counts.
-void ost_resetTotals(const mjData* d);
+OSTAPI void ost_resetTotals(const mjData* d);
 
 // Message of the last failed call on d ("" if none).
-const char* ost_lastError(const mjData* d);
+OSTAPI const char* ost_lastError(const mjData* d);
 
 // Deepest penetration (m) at d's kinematics: MuJoCo's contacts in d->contact, except that
 // cylinder-box and height field-cylinder pairs are measured with Ostrich's own generators (as
 // both providers collide them).
-double ost_maxPenetration(const mjModel* m, const mjData* d);
+OSTAPI double ost_maxPenetration(const mjModel* m, const mjData* d);
 
 // Release Ostrich's per-mjData state (buffers, options). Safe on unknown d.
-void ost_detach(const mjData* d);
+OSTAPI void ost_detach(const mjData* d);
 
 // Release Ostrich's per-mjData state and delete d (= mj_deleteData).
-void ost_deleteData(mjData* d);
+OSTAPI void ost_deleteData(mjData* d);
 
 
 //---------------------------------- Gradients -----------------------------------------------------
@@ -247,10 +258,10 @@ typedef enum ostParam_ {
 } ostParam;
 
 // Length of theta.
-int ost_nparam(const mjModel* m);
+OSTAPI int ost_nparam(const mjModel* m);
 
 // Offset of group g (ostParam) in theta; ost_paramAddress(m, OST_NPARAM) == ost_nparam(m).
-int ost_paramAddress(const mjModel* m, int g);
+OSTAPI int ost_paramAddress(const mjModel* m, int g);
 
 typedef struct ostGradOptions_ {  // what a backward pass computes
   int truncate;                   // 1: contact geometry held fixed within a step (no position
@@ -260,21 +271,21 @@ typedef struct ostGradOptions_ {  // what a backward pass computes
 } ostGradOptions;
 
 // Default gradient options (complete pull-back, no parameters).
-void ost_defaultGradOptions(ostGradOptions* go);
+OSTAPI void ost_defaultGradOptions(ostGradOptions* go);
 
 // Vector-Jacobian product of the last ost_step on d (all its substeps): given gq = dL/dq+
 // (nv, tangent) and gu = dL/du+ (nv), return dL/dq- (nv, tangent), dL/du- (nv), dL/dctrl (nu)
 // and, if go->params and gtheta != NULL, dL/dtheta (ost_nparam, accumulated: += ). Outputs may
 // be NULL. The step must have been taken by ost_step / ost_step2 on (m, d), and d's state not
 // changed since.
-int ost_adjoint(const mjModel* m, const mjData* d, const ostGradOptions* go, const mjtNum* gq,
-                const mjtNum* gu, mjtNum* gq_prev, mjtNum* gu_prev, mjtNum* gctrl,
-                mjtNum* gtheta);
+OSTAPI int ost_adjoint(const mjModel* m, const mjData* d, const ostGradOptions* go,
+                       const mjtNum* gq, const mjtNum* gu, mjtNum* gq_prev, mjtNum* gu_prev,
+                       mjtNum* gctrl, mjtNum* gtheta);
 
 // Dense transition Jacobians of one Ostrich step from d's state, in mjd_transitionFD's layout:
 // A = d x+/d x (2nv x 2nv), B = d x+/d ctrl (2nv x nu), x = (qpos tangent, qvel); either may be
 // NULL. d is left as it was (state, controls, time). Models with activations (na > 0) are refused.
-int ost_transition(const mjModel* m, mjData* d, mjtNum* A, mjtNum* B);
+OSTAPI int ost_transition(const mjModel* m, mjData* d, mjtNum* A, mjtNum* B);
 
 // A tape records a rollout for its backward pass: per step only the state, controls and the
 // converged forces (no Newton or PCR iterates), so the bytes per recorded step do not depend on
@@ -283,35 +294,36 @@ int ost_transition(const mjModel* m, mjData* d, mjtNum* A, mjtNum* B);
 typedef struct ostTape_ ostTape;
 
 // New empty tape for model m (NULL if allocation fails).
-ostTape* ost_tapeCreate(const mjModel* m, int checkpoint);
+OSTAPI ostTape* ost_tapeCreate(const mjModel* m, int checkpoint);
 
 // Release a tape (NULL is ignored).
-void ost_tapeDelete(ostTape* t);
+OSTAPI void ost_tapeDelete(ostTape* t);
 
 // Forget the recorded rollout; keep the allocations.
-void ost_tapeClear(ostTape* t);
+OSTAPI void ost_tapeClear(ostTape* t);
 
 // ost_step(m, d) and record the step; returns ost_step's status. A step that returns a warning
 // (OST_IS_WARNING) is recorded, but ost_tapeBackward then refuses the rollout with
 // OST_ERR_NOT_CONVERGED naming the step. The first step after ost_tapeClear fixes the start state.
-int ost_tapeStep(ostTape* t, const mjModel* m, mjData* d);
+OSTAPI int ost_tapeStep(ostTape* t, const mjModel* m, mjData* d);
 
 // Steps recorded since the last ost_tapeClear.
-int ost_tapeSteps(const ostTape* t);
+OSTAPI int ost_tapeSteps(const ostTape* t);
 
 // Bytes the tape holds now (records, checkpoints, scratch).
-size_t ost_tapeBytes(const ostTape* t);
+OSTAPI size_t ost_tapeBytes(const ostTape* t);
 
 // Backward pass over the recorded rollout of n steps. gq, gu: ((n + 1) x nv) cotangents of the
 // loss with respect to the state after each step, row 0 the start state (NULL = zero). Returns
 // gctrl (n x nu), the gradient of the start state gq0, gu0 (nv each, row 0 of gq, gu included)
 // and, with go->params, gtheta (accumulated). Outputs may be NULL. The error message of a
 // failure is in ost_tapeError.
-int ost_tapeBackward(ostTape* t, const mjModel* m, const ostGradOptions* go, const mjtNum* gq,
-                     const mjtNum* gu, mjtNum* gctrl, mjtNum* gq0, mjtNum* gu0, mjtNum* gtheta);
+OSTAPI int ost_tapeBackward(ostTape* t, const mjModel* m, const ostGradOptions* go,
+                            const mjtNum* gq, const mjtNum* gu, mjtNum* gctrl, mjtNum* gq0,
+                            mjtNum* gu0, mjtNum* gtheta);
 
 // Message of the tape's last failure ("" if none).
-const char* ost_tapeError(const ostTape* t);
+OSTAPI const char* ost_tapeError(const ostTape* t);
 
 
 //---------------------------------- Batches -------------------------------------------------------
@@ -327,38 +339,38 @@ typedef struct ostBatch_ ostBatch;
 // Create nworld worlds of m at qpos0, at rest, controls 0, on device "cpu" (all cores),
 // "cpu:N" (N threads) or "cuda" (the current GPU; needs a build with -DOSTRICH_CUDA=ON).
 // Returns NULL on failure with the reason in err.
-ostBatch* ost_batchCreate(const mjModel* m, int nworld, const char* device, char* err,
-                          int err_sz);
+OSTAPI ostBatch* ost_batchCreate(const mjModel* m, int nworld, const char* device, char* err,
+                                 int err_sz);
 
 // Free a batch (NULL is ignored).
-void ost_batchDelete(ostBatch* b);
+OSTAPI void ost_batchDelete(ostBatch* b);
 
 // Number of worlds.
-int ost_batchWorlds(const ostBatch* b);
+OSTAPI int ost_batchWorlds(const ostBatch* b);
 
 // Set every world's state: qpos (nworld x nq) and qvel (nworld x nv); NULL = qpos0 / rest. Time,
 // warm start and outcome bits are reset.
-int ost_batchSetState(ostBatch* b, const mjtNum* qpos, const mjtNum* qvel);
+OSTAPI int ost_batchSetState(ostBatch* b, const mjtNum* qpos, const mjtNum* qvel);
 
 // Copy every world's state out: qpos (nworld x nq), qvel (nworld x nv); either may be NULL.
-int ost_batchGetState(const ostBatch* b, mjtNum* qpos, mjtNum* qvel);
+OSTAPI int ost_batchGetState(const ostBatch* b, mjtNum* qpos, mjtNum* qvel);
 
 // Set every world's controls (nworld x nu), used by the following steps.
-int ost_batchSetCtrl(ostBatch* b, const mjtNum* ctrl);
+OSTAPI int ost_batchSetCtrl(ostBatch* b, const mjtNum* ctrl);
 
 // Advance every world by one step.
-int ost_batchStep(ostBatch* b);
+OSTAPI int ost_batchStep(ostBatch* b);
 
 // Advance every world by nstep steps. ctrl (nstep x nworld x nu) gives the controls of each
 // step (NULL: keep the worlds' controls); qpos (nstep x nworld x nq) and qvel (nstep x nworld x
 // nv) receive the state after each step (NULL: not kept).
-int ost_batchRollout(ostBatch* b, int nstep, const mjtNum* ctrl, mjtNum* qpos, mjtNum* qvel);
+OSTAPI int ost_batchRollout(ostBatch* b, int nstep, const mjtNum* ctrl, mjtNum* qpos, mjtNum* qvel);
 
 // Let the following rollouts from a set state keep every world's state every `every` steps (0,
 // the default: keep none), so that ost_batchBackward with checkpoint `every` starts from them
 // instead of replaying the rollout to make them: one replay fewer per backward pass, for
 // ceil(nstep / every) x ost_batchBytes' world memory more (host for cpu, device for cuda).
-int ost_batchKeepCheckpoints(ostBatch* b, int every);
+OSTAPI int ost_batchKeepCheckpoints(ostBatch* b, int every);
 
 // Gradients of a loss of the last rollout, which must have started right after
 // ost_batchSetState (cpu and cuda alike, same bits). gq, gu ((nstep + 1) x nworld x nv,
@@ -376,27 +388,28 @@ int ost_batchKeepCheckpoints(ostBatch* b, int every);
 // violation (OST_DEPENETRATED) gets NaN gradients and that bit: the implicit function theorem
 // holds only at a solved step. go->truncate is honoured; go->params is refused (no parameter
 // gradients for batches: use a tape).
-int ost_batchBackward(ostBatch* b, const ostGradOptions* go, int checkpoint, const mjtNum* gq,
-                      const mjtNum* gu, mjtNum* gctrl, mjtNum* gq0, mjtNum* gu0);
+OSTAPI int ost_batchBackward(ostBatch* b, const ostGradOptions* go, int checkpoint,
+                             const mjtNum* gq, const mjtNum* gu, mjtNum* gctrl, mjtNum* gq0,
+                             mjtNum* gu0);
 
 // Outcome bits of every world's last step (nworld ints, ostStatusBit). OST_NOT_CONVERGED and
 // OST_DEPENETRATED are warnings: the world stepped on.
-int ost_batchStatus(const ostBatch* b, int* status);
+OSTAPI int ost_batchStatus(const ostBatch* b, int* status);
 
 // Steps of every world, since its state was last set, whose answer did not reach opt.tol
 // (OST_NOT_CONVERGED; nworld ints).
-int ost_batchUnconverged(const ostBatch* b, int* count);
+OSTAPI int ost_batchUnconverged(const ostBatch* b, int* count);
 
 // Bytes of the batch's world memory (host for cpu, device for cuda; the model not included).
-size_t ost_batchBytes(const ostBatch* b);
+OSTAPI size_t ost_batchBytes(const ostBatch* b);
 
 // Memory of the batch's device: for cuda, the bytes in use on the GPU by every process
 // (cudaMemGetInfo: total - free) and the GPU's total; for cpu, the batch's bytes (model and
 // worlds) and 0.
-int ost_batchMemory(const ostBatch* b, size_t* used, size_t* total);
+OSTAPI int ost_batchMemory(const ostBatch* b, size_t* used, size_t* total);
 
 // Message of the batch's last failure ("" if none).
-const char* ost_batchError(const ostBatch* b);
+OSTAPI const char* ost_batchError(const ostBatch* b);
 
 
 #ifdef __cplusplus
