@@ -68,7 +68,7 @@ typedef enum ostStatusBit_ {      // per-step outcome bits (ostStats.status), sa
 // Solver options. Each field can be set in MJCF as <custom><numeric name="ostrich/FIELD"
 // data="..."/></custom>, so that a model configured for Ostrich still loads in stock MuJoCo.
 typedef struct ostOptions_ {
-  int    newton_iter;             // Newton budget per step                          (16)
+  int    newton_iter;             // Newton budget per step                          (64)
   int    pcr_iter;                // PCR budget per Newton iterate                   (32)
   int    k_min;                   // earliest Newton iterate that may be returned     (1)
   int    linesearch;              // max step halvings per Newton iterate, 0 = none   (1)
