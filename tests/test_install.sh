@@ -1,0 +1,75 @@
+#!/usr/bin/env bash
+# test_install.sh BUILD_DIR SOURCE_DIR CMAKE CC: install BUILD_DIR into a temporary prefix, check
+# what was installed (library with its SOVERSION, header, preload library, program, CMake package,
+# ostrich.pc, and that libostrich.so exports the public API and nothing else), then build
+# tests/install/example.c against that prefix twice, with find_package(ostrich) and with
+# pkg-config, run both on mjcf_models/box_plane.xml and check what they print.
+set -euo pipefail
+build=$1 src=$2 cmake=$3 cc=$4
+models=$src/mjcf_models
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+fail() { echo "FAIL: $*" >&2; exit 1; }
+# neither build tree nor environment may supply the library: only the prefix's rpath
+unset LD_LIBRARY_PATH LD_PRELOAD PKG_CONFIG_PATH CMAKE_PREFIX_PATH
+
+prefix=$tmp/prefix
+"$cmake" --install "$build" --prefix "$prefix" > "$tmp/install.log" || {
+  cat "$tmp/install.log"; fail "cmake --install"; }
+
+# files
+lib=$(find "$prefix" -name 'libostrich.so' | head -1)
+[ -n "$lib" ] || fail "no libostrich.so under $prefix"
+libdir=$(dirname "$lib")
+soname=$(objdump -p "$lib" | awk '$1 == "SONAME" {print $2}')
+[[ $soname =~ ^libostrich\.so\.[0-9]+$ ]] || fail "SONAME '$soname' is not libostrich.so.N"
+[ -e "$libdir/$soname" ] || fail "$soname not installed"
+for f in include/ostrich/ostrich.h bin/ostrich; do
+  [ -e "$prefix/$f" ] || fail "$f not installed"
+done
+[ -e "$libdir/libostrich_preload.so" ] || fail "libostrich_preload.so not installed"
+[ -e "$libdir/cmake/ostrich/ostrichConfig.cmake" ] || fail "CMake package not installed"
+[ -e "$libdir/pkgconfig/ostrich.pc" ] || fail "ostrich.pc not installed"
+# the installed program finds the installed library (its usage exits 0 with --help)
+"$prefix/bin/ostrich" --help > /dev/null || fail "installed ostrich --help"
+
+# exports: every function that ostrich.h marks OSTAPI, nothing else but the linker's own symbols
+nm -D --defined-only "$lib" | awk '{print $3}' |
+  grep -v -x -E '_edata|_end|__bss_start|_init|_fini' | sort > "$tmp/exported"
+grep -E '^OSTAPI ' "$prefix/include/ostrich/ostrich.h" | grep -oE '\bost_[A-Za-z0-9_]+\(' |
+  tr -d '(' | sort -u > "$tmp/declared"
+[ -s "$tmp/declared" ] || fail "no OSTAPI declarations found in ostrich.h"
+if ! diff "$tmp/declared" "$tmp/exported" > "$tmp/exports.diff"; then
+  cat "$tmp/exports.diff"
+  fail "libostrich.so exports differ from ostrich.h's OSTAPI functions (< declared, > exported)"
+fi
+echo "libostrich.so ($soname) exports $(wc -l < "$tmp/exported") symbols, all of ostrich.h"
+
+# build the example both ways
+"$cmake" -S "$src/tests/install" -B "$tmp/with_cmake" -DCMAKE_PREFIX_PATH="$prefix" \
+  -DCMAKE_C_COMPILER="$cc" > "$tmp/cmake.log" 2>&1 || { cat "$tmp/cmake.log"; fail "configure"; }
+"$cmake" --build "$tmp/with_cmake" > "$tmp/build.log" 2>&1 || { cat "$tmp/build.log"; fail "build"; }
+export PKG_CONFIG_PATH=$libdir/pkgconfig
+flags=$(pkg-config --cflags --libs ostrich) || fail "pkg-config --cflags --libs ostrich"
+echo "pkg-config: $flags"
+# shellcheck disable=SC2086  # flags are words
+"$cc" -std=c11 -Wall -Wextra -Werror "$src/tests/install/example.c" $flags \
+  -o "$tmp/with_pkgconfig" || fail "cc example.c \$(pkg-config --cflags --libs ostrich)"
+
+for exe in "$tmp/with_cmake/example" "$tmp/with_pkgconfig"; do
+  # the program must load the installed library, not the build tree's
+  ldd "$exe" | grep -q "libostrich.so.* => $libdir/" || { ldd "$exe"; fail "$exe: libostrich"; }
+  out=$(OSTRICH_QUIET=1 "$exe" "$models/box_plane.xml") || fail "$exe exited $?: $out"
+  echo "$(basename "$exe"): $out"
+  echo "$out" >> "$tmp/outputs"
+done
+[ "$(sort -u "$tmp/outputs" | wc -l)" = 1 ] || fail "the two builds print different results"
+
+# status OST_OK (0) or a warning (>= 100); 10 steps of 0.002 s
+read -r status time z <<< "$(sed -E 's/^status (-?[0-9]+), time ([0-9.]+) s, box height (.*) m$/\1 \2 \3/' \
+  <<< "$out")"
+[[ $status == 0 || $status -ge 100 ]] || fail "status $status"
+[ "$time" = 0.020 ] || fail "time $time after 10 steps of 0.002 s"
+# box_plane.xml's cube rests on the floor at z = 0.1: hard contact holds it within 1e-4 m (in free
+# fall it would drop g t^2 / 2 = 2e-3 m in these 0.02 s)
+awk -v z="$z" 'BEGIN { exit !(z > 0.1 - 1e-4 && z < 0.1 + 1e-4) }' || fail "box height $z"
