@@ -21,6 +21,8 @@ static const compareCommand kCompareCommands[] = {
    compare_genlogs_main},
   {"hard", "hard cases at several timesteps with both engines; a table",
    compare_hard_main},
+  {"models", "judge Ostrich on your models: acceptance, divergence, convergence, speed, error",
+   compare_models_main},
 };
 
 static const int kNumCompareCommands =

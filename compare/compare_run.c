@@ -1,6 +1,6 @@
 // compare_run.c: the shared part of the A/B subcommands (see compare_run.h): CSV tables and
 // command files, the pallet-traversal profile, trajectories and their error metric, the engine
-// runner and argument helpers. The runner mirrors sim_loop in plugin/ost_cli.c.
+// runner, argument helpers and a process launcher. The runner mirrors sim_loop in plugin/ost_cli.c.
 //
 // Invariant: nothing here writes to stdout or exits; a rejected input gives one "ostrich:" line
 // on stderr and a nonzero return. The runner leaves the model as it found it (opt.timestep).
@@ -9,14 +9,18 @@
 #include "compare_run.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <math.h>
+#include <spawn.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/wait.h>
 
 #include "ostrich.h"
 
 const char* const kCmpEngineNames[CMP_NENGINE] = {"mujoco", "ostrich"};
-const char* const kCmpOutcomeNames[] = {"completed", "nan", "step_failed", "setup_failed"};
+const char* const kCmpOutcomeNames[] = {"completed", "nan", "step_failed", "setup_failed",
+                                        "timeout"};
 const char* const kCmpRobotColumns[3] = {"cmd_left", "cmd_right", "cmd_rear"};
 
 
@@ -602,8 +606,14 @@ static int cmp_stepOnce(const mjModel* m, mjData* d, const cmpRunSpec* spec, cmp
   }
   res->wall += cli_now() - start;
 
+  // a warning: the step was taken, not to tolerance
+  if (OST_IS_WARNING(status)) {
+    res->unconverged++;
+    status = OST_OK;
+  }
   if (status != OST_OK || cmp_mujoco_error[0]) {
     res->outcome = CMP_STEP_FAILED;
+    res->failed = 1;
     snprintf(res->why, sizeof(res->why), "step %ld failed: %s", res->steps + 1,
              status != OST_OK ? ost_lastError(d) : cmp_mujoco_error);
     return 1;
@@ -613,6 +623,14 @@ static int cmp_stepOnce(const mjModel* m, mjData* d, const cmpRunSpec* spec, cmp
     snprintf(res->why, sizeof(res->why), "non-finite or diverged state after step %ld",
              res->steps + 1);
     return 1;
+  }
+  for (int i = 0; spec->max_qvel > 0 && i < m->nv; i++) {
+    if (fabs(d->qvel[i]) > spec->max_qvel) {
+      res->outcome = CMP_NAN;
+      snprintf(res->why, sizeof(res->why), "|qvel[%d]| = %.3g > %g after step %ld", i,
+               fabs(d->qvel[i]), spec->max_qvel, res->steps + 1);
+      return 1;
+    }
   }
   return 0;
 }
@@ -637,6 +655,9 @@ int cmp_run(mjModel* m, const cmpRunSpec* spec, cmpTrajectory* tr, cmpRunResult*
   mjData* d = mj_makeData(m);
   if (!d) {
     return 1;
+  }
+  if (spec->key > 0 && spec->key <= m->nkey) {
+    mj_resetDataKeyframe(m, d, spec->key - 1);
   }
   if (spec->qpos0) {
     mju_copy(d->qpos, spec->qpos0, m->nq);
@@ -664,6 +685,12 @@ int cmp_run(mjModel* m, const cmpRunSpec* spec, cmpTrajectory* tr, cmpRunResult*
       res->steps++;
       cmp_accumulate(m, d, spec->engine, res);
       oom = cmp_appendState(tr, m, d);
+      if (spec->max_wall > 0 && res->wall > spec->max_wall && k + 1 < nstep) {
+        res->outcome = CMP_TIMEOUT;
+        snprintf(res->why, sizeof(res->why), "stopped after %.3g s wall at step %ld of %ld",
+                 res->wall, k + 1, nstep);
+        break;
+      }
     }
   }
   res->simulated = tr->n ? tr->time[tr->n - 1] : 0;  // the last finite state
@@ -802,6 +829,28 @@ int cmp_splitList(const char* option, const char* s, char* buf, int buf_sz, cons
     item = comma ? comma + 1 : NULL;
   }
   return n;
+}
+
+
+int cmp_spawn(char* const* argv, const char* out_path, const char* err_path) {
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 1, out_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  if (err_path && !strcmp(err_path, out_path)) {
+    posix_spawn_file_actions_adddup2(&actions, 1, 2);
+  } else if (err_path) {
+    posix_spawn_file_actions_addopen(&actions, 2, err_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  }
+  pid_t pid;
+  extern char** environ;
+  int status = 127;
+  if (!posix_spawnp(&pid, argv[0], &actions, NULL, argv, environ)) {
+    int wstatus = 0;
+    waitpid(pid, &wstatus, 0);
+    status = WIFEXITED(wstatus) ? WEXITSTATUS(wstatus) : 1;
+  }
+  posix_spawn_file_actions_destroy(&actions);
+  return status;
 }
 
 

@@ -175,7 +175,8 @@ typedef enum cmpOutcome_ {        // how a run ended
   CMP_COMPLETED = 0,              // every step taken, state finite
   CMP_NAN,                        // non-finite qpos/qvel, or MuJoCo reset a diverged state
   CMP_STEP_FAILED,                // ost_step returned an error, or MuJoCo reported one
-  CMP_SETUP_FAILED                // Ostrich refused the model or its options
+  CMP_SETUP_FAILED,               // Ostrich refused the model or its options
+  CMP_TIMEOUT                     // stopped after max_wall seconds in the step calls
 } cmpOutcome;
 
 extern const char* const kCmpOutcomeNames[];  // "completed", "nan", "step_failed", ...
@@ -186,6 +187,10 @@ typedef struct cmpRunSpec_ {      // one run
   double             duration;    // simulated time (s); steps = round(duration / h)
   const cmpCommands* commands;    // controls (zero-order hold); NULL: all 0
   const mjtNum*      qpos0;       // start configuration (nq); NULL: the model's qpos0
+  int                key;         // start from keyframe key - 1 (state and controls); 0: none
+  double             max_qvel;    // |qvel| above which the run stops as diverged; 0: no limit
+  double             max_wall;    // seconds in the step calls after which the run stops
+                                  // (CMP_TIMEOUT); 0: no limit
 } cmpRunSpec;
 
 typedef struct cmpRunResult_ {    // what a run measured
@@ -195,11 +200,15 @@ typedef struct cmpRunResult_ {    // what a run measured
   double wall;                    // seconds spent in the step calls
   double mean_iter;               // mean Newton (ostrich) or solver (mujoco) iterations
   double max_penetration;         // deepest contact over all steps (m)
+  long   unconverged;             // Ostrich steps taken with a warning (OST_IS_WARNING: the
+                                  // state advanced, not to tolerance); counted in steps
+  long   failed;                  // steps that failed (0 or 1: a failure ends the run)
   char   why[CLI_MSG_SZ];         // the failure, "" if completed
 } cmpRunResult;
 
 // Run one engine on m (opt.timestep is set to h for the run and restored). The trajectory
-// gets the start state and the state after every step, up to the first non-finite one. Return
+// gets the start state and the state after every step, up to the first non-finite one. An
+// Ostrich warning status (OST_IS_WARNING) is a step taken, counted in res->unconverged. Return
 // 0 if the run could be made (its outcome may still be a failure), 1 on out of memory.
 int cmp_run(mjModel* m, const cmpRunSpec* spec, cmpTrajectory* tr, cmpRunResult* res);
 
@@ -222,6 +231,10 @@ int cmp_parseEngines(const char* s, int* use);
 // or -1 after printing why (naming option).
 int cmp_splitList(const char* option, const char* s, char* buf, int buf_sz, const char** items,
                   int cap);
+
+// Run a program (found on PATH) with its stdout written to out_path and its stderr to err_path
+// (NULL: inherited); return its exit status, 127 if it could not be started.
+int cmp_spawn(char* const* argv, const char* out_path, const char* err_path);
 
 // Print a JSON array of n numbers.
 void cmp_jsonArray(FILE* f, const double* x, int n);

@@ -11,13 +11,10 @@
 
 #include <errno.h>
 #include <math.h>
-#include <spawn.h>
 #include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
-#include <sys/wait.h>
-#include <fcntl.h>
 
 #include "compare.h"
 #include "compare_run.h"
@@ -442,26 +439,6 @@ static void sweep_writePlot(FILE* f, const sweepState* s, const char* dir, const
 }
 
 
-// Run a program with its stdout and stderr appended to log_path; return its exit status
-// (127 if it could not be started).
-static int sweep_spawn(char* const* argv, const char* log_path) {
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, 1, log_path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_adddup2(&actions, 1, 2);
-  pid_t pid;
-  extern char** environ;
-  int status = 127;
-  if (!posix_spawnp(&pid, argv[0], &actions, NULL, argv, environ)) {
-    int wstatus = 0;
-    waitpid(pid, &wstatus, 0);
-    status = WIFEXITED(wstatus) ? WEXITSTATUS(wstatus) : 1;
-  }
-  posix_spawn_file_actions_destroy(&actions);
-  return status;
-}
-
-
 // Write DIR/sweep.gp and run gnuplot on it; set s->plots. Missing gnuplot is only a warning.
 static void sweep_plots(sweepState* s, const char* dir, const char* model, double ceiling,
                         int repeats) {
@@ -493,7 +470,7 @@ static void sweep_plots(sweepState* s, const char* dir, const char* model, doubl
     return;
   }
   char* argv[] = {"gnuplot", gp, NULL};
-  int status = sweep_spawn(argv, log);
+  int status = cmp_spawn(argv, log, log);
   if (status == 127) {
     cli_error("plots skipped: gnuplot not found (install gnuplot-nox); script in %s", gp);
   } else if (status) {
