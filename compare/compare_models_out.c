@@ -39,12 +39,12 @@ modelsRow* models_addRow(modelsState* s) {
 
 void models_setText(char* field, int sz, const char* text) {
   int n = 0;
-  for (const char* c = text; *c && n < sz - 3; c++) {
+  for (const char* c = text; *c && n < sz - 1; c++) {
     if (*c == '\n' || *c == '\r') {
       while (n > 0 && (field[n - 1] == ' ' || field[n - 1] == ';')) {
         n--;
       }
-      if (n > 0) {
+      if (n > 0 && n < sz - 3) {
         field[n++] = ';';
         field[n++] = ' ';
       }
@@ -179,8 +179,9 @@ static int models_splitCsv(char* line, char** field, int cap) {
       }
       *w++ = *c;
     }
+    char delim = *c;              // read before the terminator, which may overwrite it
     *w++ = 0;
-    if (*c != ',') {
+    if (delim != ',') {
       break;
     }
     c++;
@@ -332,17 +333,29 @@ void models_printTable(const modelsState* s) {
 }
 
 
-// Reduce a refusal to its kind: names in quotes and numbers after '#' become '*'.
-static void models_reasonKind(const char* reason, char* kind, int sz) {
+// Reduce one refused feature to its kind, "<element>: <feature>": from ost_checkModel's entries
+// "joint 'a': frictionloss (...)" and "44 geoms ('a', 'b' and 42 more): condim 6 (...)" the
+// element type (singular) and the text after the names; any other text with names in quotes
+// and numbers after '#' turned into '*'.
+static void models_reasonKind(const char* part, char* kind, int sz) {
+  const char* c = part + strspn(part, "0123456789");
+  int counted = c > part && *c == ' ';
+  c += counted;
+  int type_len = (int)strcspn(c, " ");
+  const char* colon = strstr(c, ": ");
+  const char* names = c + type_len;
+  if (colon && type_len > 0 && (names[0] == ' ' && (names[1] == '\'' || names[1] == '(' ||
+                                                    names[1] == '#'))) {
+    int singular = counted && type_len > 1 && c[type_len - 1] == 's';
+    snprintf(kind, (size_t)sz, "%.*s: %s", type_len - singular, c, colon + 2);
+    return;
+  }
   int n = 0;
-  for (const char* c = reason; *c && n < sz - 2; c++) {
-    if (*c == '\'') {
-      const char* end = strchr(c + 1, '\'');
-      if (end) {
-        kind[n++] = '*';
-        c = end;
-        continue;
-      }
+  for (c = part; *c && n < sz - 2; c++) {
+    if (*c == '\'' && strchr(c + 1, '\'')) {
+      kind[n++] = '*';
+      c = strchr(c + 1, '\'');
+      continue;
     }
     kind[n++] = *c;
     if (*c == '#') {
@@ -356,6 +369,27 @@ static void models_reasonKind(const char* reason, char* kind, int sz) {
 }
 
 
+// Split a refusal into its features in place: after the "unsupported by Ostrich (N features): "
+// prefix, at each "; " outside parentheses and quotes. Return the count (at most cap).
+static int models_splitReason(char* reason, char** part, int cap) {
+  char* c = strstr(reason, "): ");
+  c = c && !strncmp(reason, "unsupported by", 14) ? c + 3 : reason;
+  int n = 0, depth = 0, quoted = 0;
+  part[n++] = c;
+  for (; *c && n < cap; c++) {
+    quoted ^= *c == '\'';
+    depth += !quoted && *c == '(';
+    depth -= !quoted && *c == ')' && depth > 0;
+    if (!quoted && !depth && c[0] == ';' && c[1] == ' ') {
+      *c = 0;
+      part[n++] = c + 2;
+      c++;
+    }
+  }
+  return n;
+}
+
+
 // Print the refusal reasons ranked by how many models each blocks (a model counts once per kind).
 static void models_rankReasons(const modelsState* s) {
   static char kind[MODELS_MAX_REASONS][MODELS_REASON_SZ];
@@ -364,12 +398,15 @@ static void models_rankReasons(const modelsState* s) {
     if (strcmp(s->row[i].status, "refused")) {
       continue;
     }
-    char buf[MODELS_REASON_SZ];
+    char buf[MODELS_REASON_SZ], *part[64];
     snprintf(buf, sizeof(buf), "%s", s->row[i].reason);
-    for (char* part = strtok(buf, ";"); part; part = strtok(NULL, ";")) {
+    int npart = models_splitReason(buf, part, 64);
+    for (int p = 0; p < npart; p++) {
       char k[MODELS_REASON_SZ];
-      part += strspn(part, " ");
-      models_reasonKind(part, k, sizeof(k));
+      models_reasonKind(part[p], k, sizeof(k));
+      if (!k[0] || !strncmp(k, "...", 3)) {
+        continue;
+      }
       int j = 0;
       while (j < nkind && strcmp(kind[j], k)) {
         j++;
