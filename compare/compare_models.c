@@ -362,6 +362,7 @@ static int models_runMode(modelsState* s, int i, const char* name, mjModel* m, i
       cmpTrajectory tr;
       spec.engine = e;
       spec.h = h0 * s->scale[k];
+      spec.max_wall = s->max_wall;
       oom = cmp_run(m, &spec, &tr, &res);
       double error = oom ? NAN : cmp_trajectoryError(&tr, &ref, CMP_SAMPLE_DT);
       cmp_freeTrajectory(&tr);
