@@ -454,8 +454,15 @@ static void mujocoStart(ostContext* c, const mjModel* m, mjData* d, mjtNum h, in
   }
 
   // Mt = M(q-) + h D (implicit joint damping, as MuJoCo's Euler), factored once per step. M by
-  // the private model's CRB, which follows run-time mass edits (ost_prepareContext)
-  mj_crb(c->mo, d);
+  // the private model's CRB, which follows run-time mass edits (ost_prepareContext); only a
+  // model with simple dofs needs it: otherwise d->qM already came from CRB on m
+  int simple = 0;
+  for (int j = 0; j < nv; j++) {
+    simple |= m->dof_simplenum[j];
+  }
+  if (simple) {
+    mj_crb(c->mo, d);
+  }
   mj_fullM(m, w->M, d->qM);
   for (int j = 0; j < nv; j++) {
     w->M[j * nv + j] += h * m->dof_damping[j];
