@@ -197,6 +197,7 @@ OST_HD void osti_nativeStart(const ostModel* m, ostKin* k, ostWorld* w, const os
   for (int i = 0; i < nv * nv; i++) {
     w->M[i] = k->qM[i];
   }
+  w->dof_parent = m->dof_parentid;  // M is tree-sparse: factored without fill
   for (int j = 0; j < nv; j++) {
     w->M[j * nv + j] += h * m->dof_damping[j];
     w->qfrc_explicit[j] = k->qfrc_passive[j] - k->qfrc_bias[j]

@@ -22,6 +22,7 @@
 #include "ost_constraint.h"
 #include "ost_hd.h"
 #include "ost_util_dense.h"
+#include "ost_util_tree.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -105,6 +106,8 @@ typedef struct ostWorld_ {        // one world: sizes and pointers into one allo
   ostNum h;                       // timestep (s)
   ostNum lookahead;               // contacts are reported up to this gap (m)
   ostNum depen_speed;             // bounded removal speed of violations at q- (0: at once)
+  const int* dof_parent;          // parent dof of each dof (-1: root), set with M: M is then
+                                  // factored as a tree (ost_util_tree.h); NULL: dense Cholesky
 #define X(type, name, r, c) type* name;
   OST_WORLD_ARRAYS(X)
 #undef X
@@ -143,6 +146,7 @@ OST_HD void ostu_worldInitFor(ostWorld* w, void* buf, int nv, int nrow_max, ostN
   w->h = h;
   w->lookahead = 0;
   w->depen_speed = 0;
+  w->dof_parent = NULL;
 #define X(type, name, r, c)                                         \
   w->name = (size_t)(r) * (size_t)(c) != 0 ? (type*)p : NULL;       \
   p += (((size_t)(r) * (c) * sizeof(type) + 63) / 64) * 64;
@@ -156,9 +160,21 @@ OST_HD void ostu_worldInit(ostWorld* w, void* buf, int nv, int nrow_max, ostNum 
 }
 
 
-// factor Mt = M + h D in place (the caller filled w->M); returns 0 or 1 + failing column
+// factor Mt = M + h D in place (the caller filled w->M, and w->dof_parent for a tree-sparse
+// factor); returns 0 or 1 + failing column
 OST_HD int osti_factorMass(ostWorld* w) {
-  return ostu_cholFactor(w->M, w->nv);
+  return w->dof_parent ? ostu_treeFactor(w->M, w->dof_parent, w->nv)
+                       : ostu_cholFactor(w->M, w->nv);
+}
+
+
+// x = Mt^-1 x with the factor of osti_factorMass
+OST_HD void osti_massSolve(const ostWorld* w, ostNum* x) {
+  if (w->dof_parent) {
+    ostu_treeSolve(x, w->M, w->dof_parent, x, w->nv);
+  } else {
+    ostu_cholSolve(x, w->M, x, w->nv);
+  }
 }
 
 
@@ -168,7 +184,9 @@ OST_HD int osti_factorMass(ostWorld* w) {
 
 // Jacobi diagonal entry of row i, J_i Mt^-1 J_i', kept positive for the divisions that use it
 OST_HD void osti_rowDiag(ostWorld* w, int i) {
-  ostNum d = ostu_cholNormSqr(w->tmp + w->nv, w->M, w->J + (size_t)i * w->nv, w->nv);
+  const ostNum* Ji = w->J + (size_t)i * w->nv;
+  ostNum d = w->dof_parent ? ostu_treeNormSqr(w->tmp + w->nv, w->M, w->dof_parent, Ji, w->nv)
+                           : ostu_cholNormSqr(w->tmp + w->nv, w->M, Ji, w->nv);
   w->diag[i] = d > 1e-300 ? d : 1e-300;
 }
 
@@ -251,7 +269,7 @@ OST_HD ostNum osti_evaluate(ostWorld* w, const ostSolverOptions* opt) {
   for (int j = 0; j < nv; j++) {
     t[j] += w->qfrc_explicit[j];
   }
-  ostu_cholSolve(t, w->M, t, nv);
+  osti_massSolve(w, t);
   ostNum merit = 0;
   for (int j = 0; j < nv; j++) {
     w->Minv_rdyn[j] = w->qvel[j] - w->qvel_prev[j] - h * t[j];
@@ -333,7 +351,7 @@ OST_HD void osti_schurApply(ostWorld* w, ostNum* OST_RESTRICT y, const ostNum* x
   int nv = w->nv, nrow = w->nrow;
   ostNum* t = w->tmp;
   ostu_mulMatTVec(t, w->J, x, nrow, nv);
-  ostu_cholSolve(t, w->M, t, nv);
+  osti_massSolve(w, t);
   for (int i = 0; i < nrow; i++) {
     y[i] = ostu_dot(w->J + (size_t)i * nv, t, nv) + w->c[i] / w->h * x[i];
   }
@@ -571,7 +589,7 @@ OST_HD int osti_newtonDirection(ostWorld* w, const ostSolverOptions* opt) {
   // du = h Mt^-1 J' dlambda - Mt^-1 r_dyn                                            (eq. 12)
   ostNum* t = w->tmp;
   ostu_mulMatTVec(t, w->J, dlam, nrow, nv);
-  ostu_cholSolve(t, w->M, t, nv);
+  osti_massSolve(w, t);
   for (int j = 0; j < nv; j++) {
     w->dqvel[j] = h * t[j] - w->Minv_rdyn[j];
     w->qvel_base[j] = w->qvel[j];

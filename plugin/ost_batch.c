@@ -52,7 +52,7 @@ static int packBatchModel(ostBatch* b, const mjModel* m, char* err, int err_sz) 
     snprintf(err, err_sz, "cannot copy the model");
     return OST_ERR_MEMORY;
   }
-  ost_widenMargins(mo, o.margin);
+  ost_setMargins(mo, mo, o.margin);
   status = ost_packModel(mo, mo->nconmax, &b->model, &b->model_block, err, err_sz);
   mj_deleteModel(mo);
   if (status) {

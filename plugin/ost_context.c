@@ -30,7 +30,8 @@ static void freeContext(ostContext* c) {
   free(c->native_block);
   free(c->corepairs_block);
   free(c->hfield_data);
-  free(c->native_key);
+  free(c->sync_range);
+  free(c->sync_shadow);
   free(c->kin_buf);
   ost_adjointFree(c);
   free(c);
@@ -67,6 +68,7 @@ static ostContext* newContext(const mjModel* m, const mjData* d) {
   memset(c->world_buf, 0, sz);
   ostu_worldInit(&c->world, c->world_buf, m->nv, nrow_max, 0);
   ost_defaultOptions(&c->opt);
+  c->model_dirty = 1;
   return c;
 }
 
@@ -143,7 +145,19 @@ int ost_setOptions(const mjModel* m, mjData* d, const ostOptions* opt) {
   }
   c->opt = *opt;
   c->opt_user = 1;
+  c->model_dirty = 1;  // margins, checks and packing depend on the options
   return OST_OK;
+}
+
+
+void ost_modelChanged(const mjModel* m) {
+  pthread_mutex_lock(&registry_lock);
+  for (ostContext* c = registry; c; c = c->next) {
+    if (c->m == m) {
+      c->model_dirty = 1;
+    }
+  }
+  pthread_mutex_unlock(&registry_lock);
 }
 
 

@@ -34,6 +34,11 @@ typedef struct ostRecord_ {       // pointers into one record block (ost_recordV
   ostRow* rows;                   // rows of the solution                    (nrow_max)
 } ostRecord;
 
+typedef struct ostSyncRange_ {   // a byte range of mjModel.buffer (ost_sync.c)
+  size_t off;                     // offset in m->buffer
+  size_t sz;                      // bytes
+} ostSyncRange;
+
 typedef struct ostContext_ {
   const mjData*  d;               // the mjData this context serves
   const void*    d_buffer;        // d->buffer when created (detects pointer reuse)
@@ -53,11 +58,15 @@ typedef struct ostContext_ {
   void*          world_buf;       // the core world's single allocation
   ostModel       native;          // native provider: packed model (geometry option 1)
   void*          native_block;    // its single allocation
-  void*          native_key;      // copy of the user's m->buffer when packed (change detection)
-  size_t         native_key_sz;   // its size in bytes
-  mjOption       native_opt;      // the user's m->opt when packed
-  int            native_nconmax;  // the user's m->nconmax when packed
+  int            native_dirty;    // 1 if the native packing must be rebuilt
   double         native_margin;   // the look-ahead margin when packed
+  int            model_dirty;     // 1 if the private model must be copied, checked and packed
+                                  // again (new context, ost_modelChanged, ost_setOptions)
+  ostSyncRange*  sync_range;      // byte ranges of m->buffer compared per step (ost_sync.c)
+  int            sync_n;          // their number
+  char*          sync_shadow;     // their values at the last synchronisation
+  size_t         sync_sz;         // its size in bytes
+  mjOption       sync_opt;        // m->opt at the last synchronisation
   ostModel       corepairs;       // mujoco provider: pairs collided by core (ost_corePair)
   void*          corepairs_block; // their arrays (ost_packCorePairs)
   ostNum*        hfield_data;     // the model's height-field data as ostNum (nhfielddata)
@@ -137,9 +146,15 @@ int ost_nativeReady(ostContext* c, const mjModel* m);
 // options, model check and private model of a context before a step (ost_step.c)
 int ost_prepareContext(ostContext* c, const mjModel* m);
 
-// widen every geom, pair and joint margin of mo by the look-ahead distance (gaps unchanged, so
-// contacts and limits within it get rows); the private model of ost_step and of a batch
-void ost_widenMargins(mjModel* mo, mjtNum lookahead);
+// every geom, pair and joint margin of mo = m's plus the look-ahead distance (gaps unchanged,
+// so contacts and limits within it get rows); the private model of ost_step and of a batch.
+// mo may be m.
+void ost_setMargins(mjModel* mo, const mjModel* m, mjtNum lookahead);
+
+// bring the private model c->mo up to date with m, copying only the arrays that changed since
+// the last call (a full copy on the first call or when c->model_dirty): 1 if anything changed,
+// 0 if not, < 0 if out of memory (message recorded)
+int ost_syncModel(ostContext* c, const mjModel* m);
 
 // rows a step can need: equality (<= 6 per constraint), joint limits (<= 2 per joint),
 // contacts (<= 3 per contact, capacity nconmax) and one servo row per actuator (ost_context.c)

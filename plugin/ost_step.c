@@ -40,22 +40,11 @@ static int checkInputs(ostContext* c, const mjModel* m, const mjData* d, int con
 }
 
 
-// 1 if the packed model was made from the same user model: its arrays (m->buffer), options,
-// contact capacity and look-ahead margin all unchanged since the last packing
-static int nativeCurrent(const ostContext* c, const mjModel* m) {
-  return c->native_block && c->native_key_sz == (size_t)m->nbuffer
-         && c->native_nconmax == m->nconmax && c->native_margin == c->opt.margin
-         && !memcmp(&c->native_opt, &m->opt, sizeof(mjOption))
-         && !memcmp(c->native_key, m->buffer, c->native_key_sz);
-}
-
-
-// native provider: pack the private model (margins widened) and size the kinematics block.
-// Users may edit mjModel fields between steps, so the model is repacked whenever the user's
-// model differs from the one last packed (a byte comparison: packing a 12,500-face terrain
-// mesh and its grid costs about 1.2 ms, the comparison a small fraction of that)
+// native provider: pack the private model (margins widened) and size the kinematics block, if
+// the model changed since the last packing (ost_syncModel) or the look-ahead margin did
 int ost_nativeReady(ostContext* c, const mjModel* m) {
-  if (nativeCurrent(c, m)) {
+  (void)m;
+  if (c->native_block && !c->native_dirty && c->native_margin == c->opt.margin) {
     return OST_OK;
   }
   free(c->native_block);
@@ -65,16 +54,7 @@ int ost_nativeReady(ostContext* c, const mjModel* m) {
   if (status) {
     return status;
   }
-  if (c->native_key_sz != (size_t)m->nbuffer) {
-    free(c->native_key);
-    c->native_key = malloc(m->nbuffer);
-    c->native_key_sz = c->native_key ? m->nbuffer : 0;
-  }
-  if (c->native_key) {
-    memcpy(c->native_key, m->buffer, c->native_key_sz);
-  }
-  c->native_opt = m->opt;
-  c->native_nconmax = m->nconmax;
+  c->native_dirty = 0;
   c->native_margin = c->opt.margin;
   size_t sz = ostu_kinSize(c->native.s);
   if (!c->kin_buf || memcmp(&c->kin.s, &c->native.s, sizeof(ostSizes))) {
@@ -97,24 +77,36 @@ ostSolverOptions ost_solverOptions(const ostOptions* o) {
 }
 
 
-void ost_widenMargins(mjModel* mo, mjtNum lookahead) {
+void ost_setMargins(mjModel* mo, const mjModel* m, mjtNum lookahead) {
   for (int i = 0; i < mo->ngeom; i++) {
-    mo->geom_margin[i] += lookahead;
+    mo->geom_margin[i] = m->geom_margin[i] + lookahead;
   }
   for (int i = 0; i < mo->npair; i++) {
-    mo->pair_margin[i] += lookahead;
+    mo->pair_margin[i] = m->pair_margin[i] + lookahead;
   }
   for (int i = 0; i < mo->njnt; i++) {
-    mo->jnt_margin[i] += lookahead;
+    mo->jnt_margin[i] = m->jnt_margin[i] + lookahead;
   }
 }
 
 
-// prepare the context for a step: options, model check, private model whose margins are
-// widened by the look-ahead distance (gaps unchanged, so look-ahead contacts get efc rows)
+// prepare the context for a step. The private model follows the user's (ost_syncModel: only
+// changed arrays are copied); only when it or the options changed are the options re-read, the
+// model checked and the model-derived data (servo flags, look-ahead margins, core pairs, the
+// native packing) rebuilt. ostTotals.model_packs counts those rebuilds.
 int ost_prepareContext(ostContext* c, const mjModel* m) {
   int status;
   c->err[0] = 0;
+  int changed = ost_syncModel(c, m);
+  if (changed < 0) {
+    return OST_ERR_MEMORY;
+  }
+  if (!changed && !c->model_dirty) {
+    return c->opt.geometry == OST_GEOMETRY_NATIVE ? ost_nativeReady(c, m) : OST_OK;
+  }
+  // stays dirty until every stage below succeeded, so a refused model is refused every step
+  c->model_dirty = 1;
+  c->native_dirty = 1;
   if (!c->opt_user && (status = ost_readOptions(m, &c->opt, c->err, sizeof(c->err)))) {
     return status;
   }
@@ -124,27 +116,19 @@ int ost_prepareContext(ostContext* c, const mjModel* m) {
   for (int i = 0; i < m->nu; i++) {
     c->servo[i] = ost_actuatorKind(m, i, NULL, 0) == 1;
   }
-  // the private model follows the user's model every step (users edit mjModel fields)
-  c->mo = mj_copyModel(c->mo, m);
-  if (!c->mo) {
-    return ost_fail(c, OST_ERR_MEMORY, "cannot copy the model");
-  }
-  mjModel* mo = c->mo;
-  ost_widenMargins(mo, c->opt.margin);
-  // MuJoCo fills the mass matrix of "simple" bodies from dof_M0, set once at load time
-  // (mj_setConst), so a body_mass or body_inertia edited between steps would change gravity but
-  // not M. The private model marks no dof and body simple: its CRB (mujocoStart) follows edits.
-  memset(mo->dof_simplenum, 0, mo->nv * sizeof(int));
-  memset(mo->body_simple, 0, mo->nbody * sizeof(mjtByte));
+  ost_setMargins(c->mo, m, c->opt.margin);
   if (c->opt.geometry == OST_GEOMETRY_NATIVE) {
-    return ost_nativeReady(c, m);
+    status = ost_nativeReady(c, m);
+  } else if (ost_packCorePairs(c->mo, &c->corepairs, &c->corepairs_block)
+             || ost_hfieldData(c->mo, &c->hfield_data, &c->hfield_n)) {
+    // the mujoco provider collides core pairs with core's functions (ost_rows_mujoco.c)
+    status = ost_fail(c, OST_ERR_MEMORY, "cannot allocate the core pair list");
   }
-  // the mujoco provider collides core pairs with core's functions (ost_rows_mujoco.c)
-  if (ost_packCorePairs(mo, &c->corepairs, &c->corepairs_block)
-      || ost_hfieldData(mo, &c->hfield_data, &c->hfield_n)) {
-    return ost_fail(c, OST_ERR_MEMORY, "cannot allocate the core pair list");
+  if (!status) {
+    c->model_dirty = 0;
+    c->totals.model_packs++;
   }
-  return OST_OK;
+  return status;
 }
 
 
@@ -467,6 +451,7 @@ static void mujocoStart(ostContext* c, const mjModel* m, mjData* d, mjtNum h, in
   for (int j = 0; j < nv; j++) {
     w->M[j * nv + j] += h * m->dof_damping[j];
   }
+  w->dof_parent = m->dof_parentid;  // M is tree-sparse: factored without fill
 }
 
 

@@ -104,6 +104,13 @@ OSTAPI int ost_readOptions(const mjModel* m, ostOptions* opt, char* err, int err
 // Override the options used for steps of this mjData (after ost_readOptions of the model).
 OSTAPI int ost_setOptions(const mjModel* m, mjData* d, const ostOptions* opt);
 
+// Say that m was edited in arrays that steps do not compare. Every step compares the arrays it
+// reads with their values at the last step and follows edits of them at once (body_mass,
+// geom_friction, dof_damping, actuator gains, height-field data, opt, ...); only edits of mesh
+// arrays (mesh_*), which are read when the model is packed, need this call before the next step
+// of any mjData of m.
+OSTAPI void ost_modelChanged(const mjModel* m);
+
 
 //---------------------------------- Model check ---------------------------------------------------
 
@@ -199,6 +206,8 @@ typedef struct ostTotals_ {
   double worst_residual;          // largest committed residual (m/s)
   double worst_initial_violation; // largest initial_violation (m or rad)
   int    last_failure;            // ostStatus of the last failed step (0 if none)
+  long   model_packs;             // times the private model was checked and packed again
+                                  // because the model or the options changed (1 if never)
 } ostTotals;
 
 // Advance one step with Ostrich (mj_step semantics, mjcb_control included). Returns OST_OK,

@@ -74,7 +74,7 @@ static rollout* newRollout(const char* model, double h, int nstep, double ctrl, 
   ck_assert_int_eq(ost_readOptions(m, &r->opt, NULL, 0), OST_OK);
   r->opt.timestep = h;
   r->opt.newton_iter = 100;
-  r->opt.tol = 1e-13;
+  r->opt.tol = 1e-12;  // the round-off floor of the merit is about 1e-13 m/s (robot, 5 m/s)
   r->opt.split_depth = 0;
   r->nstep = nstep;
   r->qpos0 = (mjtNum*)calloc(m->nq, sizeof(mjtNum));

@@ -239,7 +239,10 @@ START_TEST(test_batchBackward) {
     for (int i = 0; i < 3; i++) ctrl[(probes[p][0] * nw + i) * nu + probes[p][1]] += eps;
     for (int i = 0; i < 3; i++) {
       double fd = (Lp[i] - Lm[i]) / (2 * eps), g = gctrl[(probes[p][0] * nw + i) * nu + probes[p][1]];
-      double e = fabs(g - fd) / fmax(1e-3, fabs(fd));
+      // each step is converged to tol = 1e-10 m/s only, so the central differences carry an
+      // absolute error of order 1e-6 (tol over eps, times the steps' gain); small gradients
+      // are compared in absolute terms below 1e-2 (largest gradients here about 0.06)
+      double e = fabs(g - fd) / fmax(1e-2, fabs(fd));
       worst = fmax(worst, e);
       printf("backward world %d ctrl[t=%d, a=%d]: adjoint %.8g, central differences %.8g\n", i,
              probes[p][0], probes[p][1], g, fd);
