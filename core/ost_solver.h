@@ -92,6 +92,9 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNu
   X(ostNum, krylov, OST_SOLVER_ROWS(nrow_max), OST_KRYLOV + 1) /* GMRES basis */                   \
   X(ostNum, hess, OST_SOLVER_ROWS(OST_KRYLOV + 1), OST_KRYLOV + 4) /* Hessenberg, rotations */     \
   X(ostRow, rows_relax, OST_SOLVER_ROWS(nrow_max), 1) /* violations kept this step (relax) */     \
+  X(int, Jnnz, OST_SOLVER_ROWS(nrow_max), 1) /* columns in row i's pattern (osti_rowPatterns) */ \
+  X(int, Jind, OST_SOLVER_ROWS(nrow_max), nv) /* their indices, ascending                   */   \
+  X(unsigned char, colmark, OST_SOLVER_ROWS(nv), 1) /* pattern scratch, all zero between calls */ \
   X(unsigned char, used,          nrow_max, 1)   /* matching scratch                       */
 
 typedef struct ostWorld_ {        // one world: sizes and pointers into one allocation
@@ -152,6 +155,9 @@ OST_HD void ostu_worldInitFor(ostWorld* w, void* buf, int nv, int nrow_max, ostN
   p += (((size_t)(r) * (c) * sizeof(type) + 63) / 64) * 64;
   OST_WORLD_ARRAYS(X)
 #undef X
+  for (int j = 0; w->colmark && j < nv; j++) {
+    w->colmark[j] = 0;
+  }
 }
 
 
@@ -178,15 +184,135 @@ OST_HD void osti_massSolve(const ostWorld* w, ostNum* x) {
 }
 
 
+// Row patterns. A row's Jacobian is zero off the dofs of its bodies' chains, so the products of
+// the Schur operator run over each row's pattern: the columns where it may be non-zero, closed
+// under the dof tree's parent map when M is factored as a tree (then L^-T J_i' stays within the
+// pattern too, ost_util_tree.h). The rows of one contact share one pattern, since the friction
+// rows are rotated into each other. A world without pattern arrays (the adjoint's residual
+// evaluation) uses dense rows.
+
+// the pattern of rows i .. i+g-1 into row i's (shared by the group): columns, descending, where
+// one of the rows is non-zero or which are an ancestor of such a column
+OST_HD void osti_groupPattern(ostWorld* w, int i, int g) {
+  int nv = w->nv, n = 0;
+  int* ind = w->Jind + (size_t)i * nv;
+  const int* parent = w->dof_parent;
+  unsigned char* mark = w->colmark;  // set by a descendant column; cleared as it is visited
+  for (int c = nv - 1; c >= 0; c--) {
+    int nz = mark[c];
+    mark[c] = 0;
+    for (int r = i; r < i + g && !nz; r++) {
+      nz = OSTU_NONZERO(w->J[(size_t)r * nv + c]);
+    }
+    if (nz) {
+      ind[n++] = c;
+      if (parent && parent[c] >= 0) {
+        mark[parent[c]] = 1;
+      }
+    }
+  }
+  for (int a = 0, b = n - 1; a < b; a++, b--) {  // ascending
+    int t = ind[a];
+    ind[a] = ind[b];
+    ind[b] = t;
+  }
+  for (int r = i; r < i + g; r++) {
+    w->Jnnz[r] = n;
+    if (r > i) {
+      for (int k = 0; k < n; k++) {
+        w->Jind[(size_t)r * nv + k] = ind[k];
+      }
+    }
+  }
+}
+
+
+// the patterns of all rows (a contact and its two friction rows as one group). osti_evaluate
+// calls it; code that fills rows and J and then applies the operator directly calls it first.
+OST_HD void osti_rowPatterns(ostWorld* w) {
+  if (!w->Jnnz) {
+    return;
+  }
+  for (int i = 0; i < w->nrow;) {
+    int g = (w->rows[i].type == OST_ROW_CONTACT && i + 2 < w->nrow
+             && w->rows[i + 1].type == OST_ROW_FRICTION && w->rows[i + 1].normal == i) ? 3 : 1;
+    osti_groupPattern(w, i, g);
+    i += g;
+  }
+}
+
+
+// J_i x over row i's pattern
+OST_HD ostNum osti_rowDot(const ostWorld* w, int i, const ostNum* x) {
+  int nv = w->nv;
+  const ostNum* Ji = w->J + (size_t)i * nv;
+  if (!w->Jnnz) {
+    return ostu_dot(Ji, x, nv);
+  }
+  const int* ind = w->Jind + (size_t)i * nv;
+  ostNum s = 0;
+  for (int k = 0; k < w->Jnnz[i]; k++) {
+    s += Ji[ind[k]] * x[ind[k]];
+  }
+  return s;
+}
+
+
+// t = J' x (nv) over the rows' patterns
+OST_HD void osti_mulJT(const ostWorld* w, ostNum* OST_RESTRICT t, const ostNum* x) {
+  int nv = w->nv;
+  if (!w->Jnnz) {
+    ostu_mulMatTVec(t, w->J, x, w->nrow, nv);
+    return;
+  }
+  for (int j = 0; j < nv; j++) {
+    t[j] = 0;
+  }
+  for (int i = 0; i < w->nrow; i++) {
+    ostNum xi = x[i];
+    if (OSTU_SKIPPABLE(xi)) {
+      continue;
+    }
+    const ostNum* Ji = w->J + (size_t)i * nv;
+    const int* ind = w->Jind + (size_t)i * nv;
+    for (int k = 0; k < w->Jnnz[i]; k++) {
+      t[ind[k]] += Ji[ind[k]] * xi;
+    }
+  }
+}
+
+
 // compliance factor of a row whose force is fixed (its Newton update is dlambda = target - lambda)
 #define OST_FIXED_ROW 1e12
 
 
 // Jacobi diagonal entry of row i, J_i Mt^-1 J_i', kept positive for the divisions that use it
 OST_HD void osti_rowDiag(ostWorld* w, int i) {
-  const ostNum* Ji = w->J + (size_t)i * w->nv;
-  ostNum d = w->dof_parent ? ostu_treeNormSqr(w->tmp + w->nv, w->M, w->dof_parent, Ji, w->nv)
-                           : ostu_cholNormSqr(w->tmp + w->nv, w->M, Ji, w->nv);
+  int nv = w->nv;
+  const ostNum* Ji = w->J + (size_t)i * nv;
+  ostNum d;
+  if (w->dof_parent && w->Jnnz) {
+    // y = L^-T J_i' stays within the (parent-closed) pattern; d = y' D^-1 y
+    const int* ind = w->Jind + (size_t)i * nv;
+    const int* parent = w->dof_parent;
+    ostNum* y = w->tmp + nv;
+    int n = w->Jnnz[i];
+    for (int k = 0; k < n; k++) {
+      y[ind[k]] = Ji[ind[k]];
+    }
+    d = 0;
+    for (int k = n - 1; k >= 0; k--) {
+      int c = ind[k];
+      ostNum yc = y[c];
+      for (int j = parent[c]; j >= 0; j = parent[j]) {
+        y[j] -= w->M[(size_t)c * nv + j] * yc;
+      }
+      d += yc * yc / w->M[(size_t)c * nv + c];
+    }
+  } else {
+    d = w->dof_parent ? ostu_treeNormSqr(w->tmp + nv, w->M, w->dof_parent, Ji, nv)
+                      : ostu_cholNormSqr(w->tmp + nv, w->M, Ji, nv);
+  }
   w->diag[i] = d > 1e-300 ? d : 1e-300;
 }
 
@@ -197,6 +323,25 @@ OST_HD void osti_rotateRows(ostNum* a, ostNum* b, ostNum e1, ostNum e2, int n) {
     ostNum x = a[j], y = b[j];
     a[j] = e1 * x + e2 * y;
     b[j] = -e2 * x + e1 * y;
+  }
+}
+
+
+// rotate friction rows a, a+1 (one pattern) by the unit vector (e1, e2), as osti_rotateRows
+OST_HD void osti_rotateFriction(ostWorld* w, int a, ostNum e1, ostNum e2) {
+  int nv = w->nv;
+  ostNum* A = w->J + (size_t)a * nv;
+  ostNum* B = A + nv;
+  if (!w->Jnnz) {
+    osti_rotateRows(A, B, e1, e2, nv);
+    return;
+  }
+  const int* ind = w->Jind + (size_t)a * nv;
+  for (int k = 0; k < w->Jnnz[a]; k++) {
+    int j = ind[k];
+    ostNum x = A[j], y = B[j];
+    A[j] = e1 * x + e2 * y;
+    B[j] = -e2 * x + e1 * y;
   }
 }
 
@@ -214,7 +359,7 @@ OST_HD void osti_rotateRows(ostNum* a, ostNum* b, ostNum e1, ostNum e2, int n) {
 //   W = c_s + k_f (1 - beta) / beta,  beta = mu lambda_n / |z|  (W = slip / |lambda_f| at the
 // solution). Returns the squared merit |G|^2 k_f^2 (velocity units).
 OST_HD ostNum osti_frictionRows(ostWorld* w, int i, ostNum reg, ostNum creep) {
-  int nv = w->nv, a = i + 1, b = i + 2;
+  int a = i + 1, b = i + 2;
   ostNum kf = w->h * 0.5 * (w->diag[a] + w->diag[b]);
   ostNum cs = reg * kf + creep;
   ostNum bound = w->rows[i].mu * (w->lambda[i] > 0 ? w->lambda[i] : 0);
@@ -232,7 +377,7 @@ OST_HD ostNum osti_frictionRows(ostWorld* w, int i, ostNum reg, ostNum creep) {
   w->W[i] = 1;
   w->W[a] = e1;
   w->W[b] = e2;
-  osti_rotateRows(w->J + (size_t)a * nv, w->J + (size_t)b * nv, e1, e2, nv);
+  osti_rotateFriction(w, a, e1, e2);
   osti_rowDiag(w, a);
   osti_rowDiag(w, b);
   ostNum s1 = w->Ju[a], s2 = w->Ju[b];
@@ -264,8 +409,10 @@ OST_HD ostNum osti_evaluate(ostWorld* w, const ostSolverOptions* opt) {
   ostNum h = w->h;
   ostNum* t = w->tmp;
 
+  osti_rowPatterns(w);
+
   // Mt^-1 r_dyn = (u - u-) - h Mt^-1 (f + J' lambda)                              (eq. 9)
-  ostu_mulMatTVec(t, w->J, w->lambda, nrow, nv);
+  osti_mulJT(w, t, w->lambda);
   for (int j = 0; j < nv; j++) {
     t[j] += w->qfrc_explicit[j];
   }
@@ -278,7 +425,7 @@ OST_HD ostNum osti_evaluate(ostWorld* w, const ostSolverOptions* opt) {
 
   // per-row J u and the Jacobi diagonal J_i Mt^-1 J_i'
   for (int i = 0; i < nrow; i++) {
-    w->Ju[i] = ostu_dot(w->J + (size_t)i * nv, w->qvel, nv);
+    w->Ju[i] = osti_rowDot(w, i, w->qvel);
     osti_rowDiag(w, i);
     w->W[i] = 0;
   }
@@ -348,12 +495,12 @@ OST_HD ostNum osti_evaluate(ostWorld* w, const ostSolverOptions* opt) {
 
 // y = A x = J Mt^-1 J' x + (c / h) x, applied matrix-free
 OST_HD void osti_schurApply(ostWorld* w, ostNum* OST_RESTRICT y, const ostNum* x) {
-  int nv = w->nv, nrow = w->nrow;
+  int nrow = w->nrow;
   ostNum* t = w->tmp;
-  ostu_mulMatTVec(t, w->J, x, nrow, nv);
+  osti_mulJT(w, t, x);
   osti_massSolve(w, t);
   for (int i = 0; i < nrow; i++) {
-    y[i] = ostu_dot(w->J + (size_t)i * nv, t, nv) + w->c[i] / w->h * x[i];
+    y[i] = osti_rowDot(w, i, t) + w->c[i] / w->h * x[i];
   }
 }
 
@@ -581,14 +728,14 @@ OST_HD int osti_newtonDirection(ostWorld* w, const ostSolverOptions* opt) {
 
   // right-hand side (J Mt^-1 r_dyn - rho) / h                                        (eq. 11)
   for (int i = 0; i < nrow; i++) {
-    b[i] = (ostu_dot(w->J + (size_t)i * nv, w->Minv_rdyn, nv) - w->rho[i]) / h;
+    b[i] = (osti_rowDot(w, i, w->Minv_rdyn) - w->rho[i]) / h;
   }
   int it = osti_hasSlidingCoupling(w) ? osti_gmres(w, dlam, b, opt->pcr_iter, opt->pcr_tol)
                                       : osti_pcr(w, dlam, b, opt->pcr_iter, opt->pcr_tol);
 
   // du = h Mt^-1 J' dlambda - Mt^-1 r_dyn                                            (eq. 12)
   ostNum* t = w->tmp;
-  ostu_mulMatTVec(t, w->J, dlam, nrow, nv);
+  osti_mulJT(w, t, dlam);
   osti_massSolve(w, t);
   for (int j = 0; j < nv; j++) {
     w->dqvel[j] = h * t[j] - w->Minv_rdyn[j];
@@ -602,7 +749,7 @@ OST_HD int osti_newtonDirection(ostWorld* w, const ostSolverOptions* opt) {
       ostNum dpar = dlam[i + 1], dperp = dlam[i + 2];
       dlam[i + 1] = e1 * dpar - e2 * dperp;
       dlam[i + 2] = e2 * dpar + e1 * dperp;
-      osti_rotateRows(w->J + (size_t)(i + 1) * nv, w->J + (size_t)(i + 2) * nv, e1, -e2, nv);
+      osti_rotateFriction(w, i + 1, e1, -e2);
     }
   }
   for (int i = 0; i < nrow; i++) {

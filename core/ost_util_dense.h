@@ -11,10 +11,13 @@
 
 // 1 if a zero factor's term may be skipped: never for dual numbers (core/ost_dual.h), whose
 // zero value may still carry derivatives
+// OSTU_NONZERO(x): 1 unless x is known to be exactly zero (always 1 for dual numbers)
 #ifdef OST_NUM_TYPE
 #define OSTU_SKIPPABLE(x) 0
+#define OSTU_NONZERO(x) 1
 #else
 #define OSTU_SKIPPABLE(x) ((x) == 0)
+#define OSTU_NONZERO(x) ((x) != 0)
 #endif
 
 #ifdef __cplusplus

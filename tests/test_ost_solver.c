@@ -92,6 +92,8 @@ START_TEST(test_pcr) {
   w.nrow = 3;
   double J[6] = {1, 0, 0, 1, 1, -1}, c[3] = {0.1, 0.2, 0.3}, diag[3];
   for (int i = 0; i < 6; i++) w.J[i] = J[i];
+  for (int i = 0; i < 3; i++) w.rows[i] = (ostRow){0};
+  osti_rowPatterns(&w);  // the rows' patterns, as osti_evaluate computes them
   for (int i = 0; i < 3; i++) {
     w.c[i] = c[i];
     diag[i] = ostu_cholNormSqr(w.tmp + 2, w.M, J + 2 * i, 2);
@@ -146,6 +148,7 @@ START_TEST(test_gmresSliding) {
   double b[n], x[n], y[n], A[n * n], e[n], xd[n];
   int piv[n];
   for (int i = 0; i < n; i++) b[i] = sin(1.0 + i) * (w.c[i] > 1 ? 1e12 : 1);
+  osti_rowPatterns(&w);
   int it = osti_gmres(&w, x, b, 400, 1e-14);
   ck_assert_int_gt(it, OST_KRYLOV);
   // the direct solution of the same operator
