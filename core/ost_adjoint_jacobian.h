@@ -43,7 +43,7 @@ OST_HD size_t ostx_jacVectors(ostSizes s, int nrow_max) {
 
 // bytes of a work block for sizes s and row capacity nrow_max (each part 64-byte aligned)
 OST_HD size_t ostx_jacWorkSize(ostSizes s, int nrow_max) {
-  return ostu_kinSize(s) + ostu_worldSizeFor(s.nv, nrow_max, 0)
+  return ostu_kinSize(s) + ostu_worldSizeFor(s.nv, s.nv, nrow_max, 0)
          + OST_ALIGN64(ostx_jacVectors(s, nrow_max) * sizeof(ostNum))
          + OST_ALIGN64((size_t)nrow_max * sizeof(ostRow)) + OST_ALIGN64((size_t)nrow_max);
 }
@@ -58,8 +58,8 @@ OST_HD void ostx_jacWorkInit(ostJacWork* wk, void* block, ostModel* m, int nrow_
   wk->nrow_max = nrow_max;
   ostu_kinInit(&wk->k, p, s);
   p += ostu_kinSize(s);
-  ostu_worldInitFor(&wk->w, p, s.nv, nrow_max, 0, 0);  // residual only: no solver arrays
-  p += ostu_worldSizeFor(s.nv, nrow_max, 0);
+  ostu_worldInitFor(&wk->w, p, s.nv, s.nv, nrow_max, 0, 0);  // residual only: no solver arrays
+  p += ostu_worldSizeFor(s.nv, s.nv, nrow_max, 0);
   ostNum* v = (ostNum*)p;
   p += OST_ALIGN64(ostx_jacVectors(s, nrow_max) * sizeof(ostNum));
   wk->rec = (ostRow*)p;

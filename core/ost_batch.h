@@ -44,7 +44,7 @@ extern "C" {
 #define OST_LANE_ARRAYS(X)                                                                      \
   X(ostNum, scratch,   2 * s.nq + s.nv)               /* osti_stepNative's scratch          */ \
   X(char,   kin,       ostu_kinSize(s))               /* kinematics and contacts (ostKin)   */ \
-  X(char,   world,     ostu_worldSize(s.nv, nrow_max)) /* Newton's arrays (ostWorld)         */
+  X(char,   world,     ostu_worldSize(s.nv, s.ncol, nrow_max)) /* Newton's arrays (ostWorld)         */
 
 typedef struct ostBatchLayout_ {  // where each array of a world and of a lane sits
   ostSizes s;                     // the model's sizes
@@ -152,7 +152,7 @@ OST_HD void osti_worldRollout(const ostModel* m, const ostBatchLayout* L, char* 
   ostu_batchView(&v, L, world);
   ostu_laneView(&lv, L, lane);
   ostu_kinInit(&k, lv.kin, s);
-  ostu_worldInit(&w, lv.world, s.nv, L->nrow_max, set->h);
+  ostu_worldInit(&w, lv.world, s.nv, s.ncol, L->nrow_max, set->h);
   w.rows_warm = v.rows_warm;  // the warm start persists with the world, not the lane
   w.lambda_warm = v.lambda_warm;
   w.nrow_warm = *v.nrow_warm;

@@ -40,7 +40,7 @@ typedef struct ostSizes_ {        // sizes of an ostModel
   int ncell;                      // terrain grid cells, all terrain meshes
   int ncellface;                  // terrain grid cell->face entries, all terrain meshes
   int ncon_max;                   // contact capacity of one world (per iterate)
-  int pad;
+  int ncol;                       // widest row pattern in columns (ostu_rowWidth)
 } ostSizes;
 
 // the model's arrays (type, name, rows, cols); sizes come from an ostSizes named s

@@ -24,6 +24,7 @@ extern "C" {
 #define OST_ROWS_OK 0
 #define OST_ROWS_ROW_OVERFLOW 1       // more rows than w->nrow_max
 #define OST_ROWS_CONTACT_OVERFLOW 2   // more contacts than ncon_max
+#define OST_ROWS_WIDTH_OVERFLOW 3     // a row's pattern wider than w->ncol (osti_rowStore)
 
 
 // matching key of contact i: its position in the frame of geom2's body (geom1's if geom2 is
@@ -105,11 +106,14 @@ OST_HD int osti_nativeRows(const ostModel* m, ostKin* k, ostWorld* w, const ostN
         r->obj[0] = j;
         r->obj[1] = side == 0;
         r->pos = dist - m->jnt_margin[j] + lookahead;
-        ostNum* J = w->J + (size_t)n * nv;
+        ostNum* J = osti_rowScratch(w, n);
         for (int c = 0; c < nv; c++) {
           J[c] = 0;
         }
         J[m->jnt_dofadr[j]] = side == 0 ? 1 : -1;
+        if (osti_rowStore(w, n, 1)) {
+          return OST_ROWS_WIDTH_OVERFLOW;
+        }
         n++;
       }
     }
@@ -128,9 +132,12 @@ OST_HD int osti_nativeRows(const ostModel* m, ostKin* k, ostWorld* w, const ostN
     if (n + (fric ? 3 : 1) > w->nrow_max) {
       return OST_ROWS_ROW_OVERFLOW;
     }
-    ostNum* Jn = w->J + (size_t)n * nv;
+    ostNum* Jn = osti_rowScratch(w, n);
     if (!osti_contactJacobian(m, k, i, Jn, fric ? Jn + nv : NULL, fric ? Jn + 2 * nv : NULL)) {
       continue;
+    }
+    if (osti_rowStore(w, n, fric ? 3 : 1)) {
+      return OST_ROWS_WIDTH_OVERFLOW;
     }
     ostNum key[3];
     osti_contactKey(m, k, i, key);
@@ -160,8 +167,12 @@ OST_HD int osti_nativeRows(const ostModel* m, ostKin* k, ostWorld* w, const ostN
       osti_servoRow(w->rows + n, i, m->actuator_gainprm[i], m->actuator_biasprm + 3 * i,
                     osti_ctrl(m, ctrl, i), k->actuator_length[i], h,
                     m->actuator_forcelimited[i], m->actuator_forcerange + 2 * i);
+      ostNum* J = osti_rowScratch(w, n);
       for (int c = 0; c < nv; c++) {
-        w->J[(size_t)n * nv + c] = k->actuator_moment[(size_t)i * nv + c];
+        J[c] = k->actuator_moment[(size_t)i * nv + c];
+      }
+      if (osti_rowStore(w, n, 1)) {
+        return OST_ROWS_WIDTH_OVERFLOW;
       }
       n++;
     }

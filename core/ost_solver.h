@@ -62,6 +62,9 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNu
 // solver uses have OST_SOLVER_ROWS: a world that only evaluates the step's residual (the dual
 // evaluation of core/ost_adjoint_jacobian.h, solver = 0) leaves them out (NULL).
 #define OST_SOLVER_ROWS(n) ((solver) ? (n) : 0)
+// columns of a stored row of J: a solver world keeps each row compressed to its pattern (at most
+// ncol columns, osti_rowStore); the residual-only world keeps dense rows of nv
+#define OST_JCOLS ((solver) ? ncol : nv)
 #define OST_WORLD_ARRAYS(X)                                                                     \
   X(ostNum,        qvel_prev,     nv,       1)   /* u- at the start of the step           */   \
   X(ostNum,        qfrc_explicit, nv,       1)   /* f: explicit forces at (q-, u-)         */   \
@@ -74,8 +77,10 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNu
   X(ostNum,        tmp,           nv,       2)   /* scratch                                */   \
   X(ostRow,        rows,          nrow_max, 1)   /* rows of the current iterate            */   \
   X(ostRow, rows_prev, OST_SOLVER_ROWS(nrow_max), 1) /* rows of the previous iterate */            \
-  X(ostNum,        J,             nrow_max, nv)  /* row Jacobians at q(u)                  */   \
-  X(ostNum, J_prev, OST_SOLVER_ROWS(nrow_max), nv) /* row Jacobians of the previous iterate */     \
+  X(ostNum,        J,             nrow_max, OST_JCOLS) /* row Jacobians at q(u) (patterns) */   \
+  X(ostNum, J_prev, OST_SOLVER_ROWS(nrow_max), ncol) /* row Jacobians of the previous iterate */   \
+  X(int, Jnnz_prev, OST_SOLVER_ROWS(nrow_max), 1) /* their pattern sizes                     */   \
+  X(int, Jind_prev, OST_SOLVER_ROWS(nrow_max), ncol) /* and patterns                        */   \
   X(ostNum,        lambda,        nrow_max, 1)   /* multipliers (forces, N or N m)         */   \
   X(ostNum, lambda_prev, OST_SOLVER_ROWS(nrow_max), 1) /* multipliers of the previous iterate */   \
   X(ostNum, dlambda, OST_SOLVER_ROWS(nrow_max), 1) /* Newton direction (contact frame) */          \
@@ -92,8 +97,9 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNu
   X(ostNum, krylov, OST_SOLVER_ROWS(nrow_max), OST_KRYLOV + 1) /* GMRES basis */                   \
   X(ostNum, hess, OST_SOLVER_ROWS(OST_KRYLOV + 1), OST_KRYLOV + 4) /* Hessenberg, rotations */     \
   X(ostRow, rows_relax, OST_SOLVER_ROWS(nrow_max), 1) /* violations kept this step (relax) */     \
-  X(int, Jnnz, OST_SOLVER_ROWS(nrow_max), 1) /* columns in row i's pattern (osti_rowPatterns) */ \
-  X(int, Jind, OST_SOLVER_ROWS(nrow_max), nv) /* their indices, ascending                   */   \
+  X(int, Jnnz, OST_SOLVER_ROWS(nrow_max), 1) /* columns in row i's pattern (osti_rowStore)  */   \
+  X(int, Jind, OST_SOLVER_ROWS(nrow_max), ncol) /* their indices, ascending                  */   \
+  X(ostNum, Jrow, OST_SOLVER_ROWS(3), nv)    /* dense rows a provider writes (osti_rowScratch) */ \
   X(unsigned char, colmark, OST_SOLVER_ROWS(nv), 1) /* pattern scratch, all zero between calls */ \
   X(unsigned char, used,          nrow_max, 1)   /* matching scratch                       */
 
@@ -105,7 +111,7 @@ typedef struct ostWorld_ {        // one world: sizes and pointers into one allo
   int    nrow_warm;               // rows of the last step's result (0: none)
   int    prev_jac;                // 1 if J_prev holds the base iterate's Jacobians
   int    nrow_relax;              // entries of rows_relax this step (0: none)
-  int    pad;
+  int    ncol;                    // columns a stored row of J can hold (ostu_rowWidth)
   ostNum h;                       // timestep (s)
   ostNum lookahead;               // contacts are reported up to this gap (m)
   ostNum depen_speed;             // bounded removal speed of violations at q- (0: at once)
@@ -117,9 +123,24 @@ typedef struct ostWorld_ {        // one world: sizes and pointers into one allo
 } ostWorld;
 
 
-// bytes needed by one world, each array 64-byte aligned (solver = 0: without the solver's
-// arrays)
-OST_HD size_t ostu_worldSizeFor(int nv, int nrow_max, int solver) {
+// the widest row pattern of a dof tree: a row couples at most two bodies, and its pattern is
+// closed under the parent map, so it holds at most two root-to-leaf dof chains (at most nv)
+OST_HD int ostu_rowWidth(const int* dof_parent, int nv) {
+  int deepest = 0;
+  for (int k = 0; k < nv; k++) {
+    int depth = 0;
+    for (int j = k; j >= 0; j = dof_parent[j]) {
+      depth++;
+    }
+    deepest = depth > deepest ? depth : deepest;
+  }
+  return 2 * deepest < nv ? 2 * deepest : nv;
+}
+
+
+// bytes needed by one world with rows of at most ncol columns, each array 64-byte aligned
+// (solver = 0: without the solver's arrays, dense rows of nv)
+OST_HD size_t ostu_worldSizeFor(int nv, int ncol, int nrow_max, int solver) {
   size_t sz = 0;
 #define X(type, name, r, c) sz += (((size_t)(r) * (c) * sizeof(type) + 63) / 64) * 64;
   OST_WORLD_ARRAYS(X)
@@ -128,14 +149,14 @@ OST_HD size_t ostu_worldSizeFor(int nv, int nrow_max, int solver) {
 }
 
 
-OST_HD size_t ostu_worldSize(int nv, int nrow_max) {
-  return ostu_worldSizeFor(nv, nrow_max, 1);
+OST_HD size_t ostu_worldSize(int nv, int ncol, int nrow_max) {
+  return ostu_worldSizeFor(nv, ncol, nrow_max, 1);
 }
 
 
 // point a world's arrays into buf (64-byte aligned, ostu_worldSizeFor bytes); arrays left out
 // are NULL
-OST_HD void ostu_worldInitFor(ostWorld* w, void* buf, int nv, int nrow_max, ostNum h,
+OST_HD void ostu_worldInitFor(ostWorld* w, void* buf, int nv, int ncol, int nrow_max, ostNum h,
                               int solver) {
   char* p = (char*)buf;
   w->nv = nv;
@@ -145,7 +166,7 @@ OST_HD void ostu_worldInitFor(ostWorld* w, void* buf, int nv, int nrow_max, ostN
   w->nrow_warm = 0;
   w->prev_jac = 0;
   w->nrow_relax = 0;
-  w->pad = 0;
+  w->ncol = solver ? ncol : nv;
   w->h = h;
   w->lookahead = 0;
   w->depen_speed = 0;
@@ -161,8 +182,8 @@ OST_HD void ostu_worldInitFor(ostWorld* w, void* buf, int nv, int nrow_max, ostN
 }
 
 
-OST_HD void ostu_worldInit(ostWorld* w, void* buf, int nv, int nrow_max, ostNum h) {
-  ostu_worldInitFor(w, buf, nv, nrow_max, h, 1);
+OST_HD void ostu_worldInit(ostWorld* w, void* buf, int nv, int ncol, int nrow_max, ostNum h) {
+  ostu_worldInitFor(w, buf, nv, ncol, nrow_max, h, 1);
 }
 
 
@@ -184,81 +205,100 @@ OST_HD void osti_massSolve(const ostWorld* w, ostNum* x) {
 }
 
 
-// Row patterns. A row's Jacobian is zero off the dofs of its bodies' chains, so the products of
-// the Schur operator run over each row's pattern: the columns where it may be non-zero, closed
-// under the dof tree's parent map when M is factored as a tree (then L^-T J_i' stays within the
-// pattern too, ost_util_tree.h). The rows of one contact share one pattern, since the friction
-// rows are rotated into each other. A world without pattern arrays (the adjoint's residual
-// evaluation) uses dense rows.
+// Row storage. A row's Jacobian is zero off the dofs of its bodies' chains, so a solver world
+// stores each row compressed: its pattern (the columns where it may be non-zero, closed under
+// the dof tree's parent map when M is factored as a tree, so that L^-T J_i' stays within it,
+// ost_util_tree.h) and the values there, at most ncol of them. The rows of one contact share
+// one pattern, since the friction rows are rotated into each other. A provider writes up to
+// three dense rows into osti_rowScratch and stores them with osti_rowStore. A world without
+// pattern arrays (the adjoint's residual evaluation) keeps dense rows of nv.
 
-// the pattern of rows i .. i+g-1 into row i's (shared by the group): columns, descending, where
-// one of the rows is non-zero or which are an ancestor of such a column
-OST_HD void osti_groupPattern(ostWorld* w, int i, int g) {
-  int nv = w->nv, n = 0;
-  int* ind = w->Jind + (size_t)i * nv;
+// dense rows for row n (three consecutive, nv each) that the provider fills
+OST_HD ostNum* osti_rowScratch(ostWorld* w, int n) {
+  return w->Jnnz ? w->Jrow : w->J + (size_t)n * w->nv;
+}
+
+
+// store the g dense rows of osti_rowScratch as rows n .. n+g-1 with one shared pattern: the
+// columns, ascending, where one of them is non-zero or which are an ancestor of such a column.
+// Returns 0, or 1 if the pattern is wider than ncol (the row is not stored).
+OST_HD int osti_rowStore(ostWorld* w, int n, int g) {
+  if (!w->Jnnz) {
+    return 0;
+  }
+  int nv = w->nv, ncol = w->ncol, cnt = 0;
+  int* ind = w->Jind + (size_t)n * ncol;
   const int* parent = w->dof_parent;
   unsigned char* mark = w->colmark;  // set by a descendant column; cleared as it is visited
   for (int c = nv - 1; c >= 0; c--) {
     int nz = mark[c];
     mark[c] = 0;
-    for (int r = i; r < i + g && !nz; r++) {
-      nz = OSTU_NONZERO(w->J[(size_t)r * nv + c]);
+    for (int r = 0; r < g && !nz; r++) {
+      nz = OSTU_NONZERO(w->Jrow[(size_t)r * nv + c]);
     }
     if (nz) {
-      ind[n++] = c;
+      if (cnt == ncol) {
+        for (int j = c - 1; j >= 0; j--) {
+          mark[j] = 0;  // keep the scratch clear for the next call
+        }
+        return 1;
+      }
+      ind[cnt++] = c;
       if (parent && parent[c] >= 0) {
         mark[parent[c]] = 1;
       }
     }
   }
-  for (int a = 0, b = n - 1; a < b; a++, b--) {  // ascending
+  for (int a = 0, b = cnt - 1; a < b; a++, b--) {  // ascending
     int t = ind[a];
     ind[a] = ind[b];
     ind[b] = t;
   }
-  for (int r = i; r < i + g; r++) {
-    w->Jnnz[r] = n;
-    if (r > i) {
-      for (int k = 0; k < n; k++) {
-        w->Jind[(size_t)r * nv + k] = ind[k];
-      }
+  for (int r = 0; r < g; r++) {
+    int* ri = w->Jind + (size_t)(n + r) * ncol;
+    ostNum* rv = w->J + (size_t)(n + r) * ncol;
+    const ostNum* src = w->Jrow + (size_t)r * nv;
+    w->Jnnz[n + r] = cnt;
+    for (int k = 0; k < cnt; k++) {
+      ri[k] = ind[k];
+      rv[k] = src[ind[k]];
     }
   }
+  return 0;
 }
 
 
-// the patterns of all rows (a contact and its two friction rows as one group). osti_evaluate
-// calls it; code that fills rows and J and then applies the operator directly calls it first.
-OST_HD void osti_rowPatterns(ostWorld* w) {
+// entry (i, col) of J: col's position in row i's pattern (dense rows: col itself), or -1
+OST_HD int osti_rowFind(const ostWorld* w, int i, int col) {
   if (!w->Jnnz) {
-    return;
+    return col;
   }
-  for (int i = 0; i < w->nrow;) {
-    int g = (w->rows[i].type == OST_ROW_CONTACT && i + 2 < w->nrow
-             && w->rows[i + 1].type == OST_ROW_FRICTION && w->rows[i + 1].normal == i) ? 3 : 1;
-    osti_groupPattern(w, i, g);
-    i += g;
+  const int* ind = w->Jind + (size_t)i * w->ncol;
+  for (int k = 0; k < w->Jnnz[i]; k++) {
+    if (ind[k] == col) {
+      return k;
+    }
   }
+  return -1;
 }
 
 
-// J_i x over row i's pattern
+// J_i x
 OST_HD ostNum osti_rowDot(const ostWorld* w, int i, const ostNum* x) {
-  int nv = w->nv;
-  const ostNum* Ji = w->J + (size_t)i * nv;
   if (!w->Jnnz) {
-    return ostu_dot(Ji, x, nv);
+    return ostu_dot(w->J + (size_t)i * w->nv, x, w->nv);
   }
-  const int* ind = w->Jind + (size_t)i * nv;
+  const ostNum* v = w->J + (size_t)i * w->ncol;
+  const int* ind = w->Jind + (size_t)i * w->ncol;
   ostNum s = 0;
   for (int k = 0; k < w->Jnnz[i]; k++) {
-    s += Ji[ind[k]] * x[ind[k]];
+    s += v[k] * x[ind[k]];
   }
   return s;
 }
 
 
-// t = J' x (nv) over the rows' patterns
+// t = J' x (nv)
 OST_HD void osti_mulJT(const ostWorld* w, ostNum* OST_RESTRICT t, const ostNum* x) {
   int nv = w->nv;
   if (!w->Jnnz) {
@@ -273,10 +313,27 @@ OST_HD void osti_mulJT(const ostWorld* w, ostNum* OST_RESTRICT t, const ostNum* 
     if (OSTU_SKIPPABLE(xi)) {
       continue;
     }
-    const ostNum* Ji = w->J + (size_t)i * nv;
-    const int* ind = w->Jind + (size_t)i * nv;
+    const ostNum* v = w->J + (size_t)i * w->ncol;
+    const int* ind = w->Jind + (size_t)i * w->ncol;
     for (int k = 0; k < w->Jnnz[i]; k++) {
-      t[ind[k]] += Ji[ind[k]] * xi;
+      t[ind[k]] += v[k] * xi;
+    }
+  }
+}
+
+
+// copy stored row j of (Jsrc, its pattern) into row i of (Jdst, its pattern)
+OST_HD void osti_rowCopy(ostWorld* w, ostNum* Jdst, int* nnz_dst, int* ind_dst, int i,
+                         const ostNum* Jsrc, const int* nnz_src, const int* ind_src, int j) {
+  int len = w->Jnnz ? w->ncol : w->nv;
+  int n = w->Jnnz ? nnz_src[j] : w->nv;
+  for (int k = 0; k < n; k++) {
+    Jdst[(size_t)i * len + k] = Jsrc[(size_t)j * len + k];
+  }
+  if (w->Jnnz) {
+    nnz_dst[i] = n;
+    for (int k = 0; k < n; k++) {
+      ind_dst[(size_t)i * len + k] = ind_src[(size_t)j * len + k];
     }
   }
 }
@@ -289,16 +346,16 @@ OST_HD void osti_mulJT(const ostWorld* w, ostNum* OST_RESTRICT t, const ostNum* 
 // Jacobi diagonal entry of row i, J_i Mt^-1 J_i', kept positive for the divisions that use it
 OST_HD void osti_rowDiag(ostWorld* w, int i) {
   int nv = w->nv;
-  const ostNum* Ji = w->J + (size_t)i * nv;
   ostNum d;
-  if (w->dof_parent && w->Jnnz) {
+  if (w->Jnnz && w->dof_parent) {
     // y = L^-T J_i' stays within the (parent-closed) pattern; d = y' D^-1 y
-    const int* ind = w->Jind + (size_t)i * nv;
+    const ostNum* v = w->J + (size_t)i * w->ncol;
+    const int* ind = w->Jind + (size_t)i * w->ncol;
     const int* parent = w->dof_parent;
     ostNum* y = w->tmp + nv;
     int n = w->Jnnz[i];
     for (int k = 0; k < n; k++) {
-      y[ind[k]] = Ji[ind[k]];
+      y[ind[k]] = v[k];
     }
     d = 0;
     for (int k = n - 1; k >= 0; k--) {
@@ -310,8 +367,19 @@ OST_HD void osti_rowDiag(ostWorld* w, int i) {
       d += yc * yc / w->M[(size_t)c * nv + c];
     }
   } else {
-    d = w->dof_parent ? ostu_treeNormSqr(w->tmp + nv, w->M, w->dof_parent, Ji, nv)
-                      : ostu_cholNormSqr(w->tmp + nv, w->M, Ji, nv);
+    // a dense row (or a compressed one scattered into a dense vector) against either factor
+    ostNum* Ji = w->tmp + nv;
+    ostNum* y = w->Jrow && w->Jnnz ? w->Jrow : NULL;  // scratch of nv for the solve
+    if (w->Jnnz) {
+      for (int j = 0; j < nv; j++) Ji[j] = 0;
+      const int* ind = w->Jind + (size_t)i * w->ncol;
+      for (int k = 0; k < w->Jnnz[i]; k++) Ji[ind[k]] = w->J[(size_t)i * w->ncol + k];
+    } else {
+      Ji = w->J + (size_t)i * nv;
+      y = w->tmp + nv;
+    }
+    d = w->dof_parent ? ostu_treeNormSqr(y, w->M, w->dof_parent, Ji, nv)
+                      : ostu_cholNormSqr(y, w->M, Ji, nv);
   }
   w->diag[i] = d > 1e-300 ? d : 1e-300;
 }
@@ -329,20 +397,9 @@ OST_HD void osti_rotateRows(ostNum* a, ostNum* b, ostNum e1, ostNum e2, int n) {
 
 // rotate friction rows a, a+1 (one pattern) by the unit vector (e1, e2), as osti_rotateRows
 OST_HD void osti_rotateFriction(ostWorld* w, int a, ostNum e1, ostNum e2) {
-  int nv = w->nv;
-  ostNum* A = w->J + (size_t)a * nv;
-  ostNum* B = A + nv;
-  if (!w->Jnnz) {
-    osti_rotateRows(A, B, e1, e2, nv);
-    return;
-  }
-  const int* ind = w->Jind + (size_t)a * nv;
-  for (int k = 0; k < w->Jnnz[a]; k++) {
-    int j = ind[k];
-    ostNum x = A[j], y = B[j];
-    A[j] = e1 * x + e2 * y;
-    B[j] = -e2 * x + e1 * y;
-  }
+  int len = w->Jnnz ? w->ncol : w->nv;  // stored row length
+  ostNum* A = w->J + (size_t)a * len;
+  osti_rotateRows(A, A + len, e1, e2, w->Jnnz ? w->Jnnz[a] : w->nv);
 }
 
 
@@ -408,8 +465,6 @@ OST_HD ostNum osti_evaluate(ostWorld* w, const ostSolverOptions* opt) {
   int nv = w->nv, nrow = w->nrow;
   ostNum h = w->h;
   ostNum* t = w->tmp;
-
-  osti_rowPatterns(w);
 
   // Mt^-1 r_dyn = (u - u-) - h Mt^-1 (f + J' lambda)                              (eq. 9)
   osti_mulJT(w, t, w->lambda);
@@ -756,8 +811,8 @@ OST_HD int osti_newtonDirection(ostWorld* w, const ostSolverOptions* opt) {
     w->rows_prev[i] = w->rows[i];
     w->lambda_prev[i] = w->lambda[i];
   }
-  for (size_t k = 0; k < (size_t)nrow * nv; k++) {
-    w->J_prev[k] = w->J[k];
+  for (int i = 0; i < nrow; i++) {
+    osti_rowCopy(w, w->J_prev, w->Jnnz_prev, w->Jind_prev, i, w->J, w->Jnnz, w->Jind, i);
   }
   w->nrow_prev = nrow;
   w->prev_jac = 1;
@@ -825,7 +880,6 @@ OST_HD void osti_startStep(ostWorld* w, const ostNum* u, int warm) {
 // at least the look-ahead distance (it was not reported), so it never carries force in a
 // solution; it only bounds the next Newton step.
 OST_HD void osti_matchPrevious(ostWorld* w) {
-  int nv = w->nv;
   osti_matchRows(w->lambda, w->rows, w->nrow, w->lambda_trial, w->rows_prev, w->nrow_prev,
                  w->used);
   for (int j = 0; j < w->nrow_prev && w->prev_jac; j++) {
@@ -842,16 +896,16 @@ OST_HD void osti_matchPrevious(ostWorld* w) {
     for (int k = 0; k <= nfr; k++) {
       w->rows[n + k] = w->rows_prev[j + k];
       w->lambda[n + k] = w->lambda_trial[j + k];
-      for (int c = 0; c < nv; c++) {
-        w->J[(size_t)(n + k) * nv + c] = w->J_prev[(size_t)(j + k) * nv + c];
-      }
+      osti_rowCopy(w, w->J, w->Jnnz, w->Jind, n + k, w->J_prev, w->Jnnz_prev, w->Jind_prev,
+                   j + k);
       if (k > 0) {
         w->rows[n + k].normal = n;
       }
     }
-    ostNum move = 0;
-    for (int c = 0; c < nv; c++) {
-      move += w->J_prev[(size_t)j * nv + c] * (w->qvel[c] - w->qvel_base[c]);
+    ostNum move = 0;  // J_prev,j (u - u_base) over its pattern
+    for (int k = 0; k < w->Jnnz_prev[j]; k++) {
+      int c = w->Jind_prev[(size_t)j * w->ncol + k];
+      move += w->J_prev[(size_t)j * w->ncol + k] * (w->qvel[c] - w->qvel_base[c]);
     }
     ostNum gap = w->rows[n].pos + w->h * move;
     w->rows[n].pos = gap > w->lookahead ? gap : w->lookahead;

@@ -321,7 +321,8 @@ OST_HD int osti_substepNative(const ostModel* m, ostKin* k, ostWorld* w, ostNum*
   ostNativeGeometry g = {m, k, w, qpos_prev, qpos, ctrl, set->lookahead};
   int status = osti_newton(w, &set->so, set->linesearch, osti_nativeGeometry, &g, NULL, NULL, 0,
                            st);
-  if (status == OST_ROWS_ROW_OVERFLOW || status == OST_ROWS_CONTACT_OVERFLOW) {
+  if (status == OST_ROWS_ROW_OVERFLOW || status == OST_ROWS_CONTACT_OVERFLOW
+      || status == OST_ROWS_WIDTH_OVERFLOW) {
     return OST_STEP_OVERFLOW;
   }
   return status ? OST_STEP_NAN : 0;

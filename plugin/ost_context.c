@@ -43,6 +43,62 @@ int ost_rowCapacity(const mjModel* m) {
 }
 
 
+// dofs of the chains from the bodies in mark (nbody) to the root, marks cleared
+static int chainDofs(const mjModel* m, unsigned char* mark) {
+  int n = 0;
+  for (int b = m->nbody - 1; b > 0; b--) {
+    if (mark[b]) {
+      n += m->body_dofnum[b];
+      mark[m->body_parentid[b]] = 1;
+      mark[b] = 0;
+    }
+  }
+  mark[0] = 0;
+  return n;
+}
+
+
+// the bodies whose motion moves tendon t (its joints' and sites' and geoms' bodies) into mark
+static void tendonBodies(const mjModel* m, int t, unsigned char* mark) {
+  for (int k = m->tendon_adr[t]; k < m->tendon_adr[t] + m->tendon_num[t]; k++) {
+    int id = m->wrap_objid[k];
+    switch (m->wrap_type[k]) {
+    case mjWRAP_JOINT: mark[m->jnt_bodyid[id]] = 1; break;
+    case mjWRAP_SITE:  mark[m->site_bodyid[id]] = 1; break;
+    case mjWRAP_SPHERE:
+    case mjWRAP_CYLINDER: mark[m->geom_bodyid[id]] = 1; break;
+    default: break;
+    }
+  }
+}
+
+
+int ost_rowWidth(const mjModel* m) {
+  int width = ostu_rowWidth(m->dof_parentid, m->nv);
+  unsigned char* mark = (unsigned char*)calloc(m->nbody > 0 ? m->nbody : 1, 1);
+  if (!mark) {
+    return m->nv;
+  }
+  // a tendon row (equality between two tendons, an actuator on a tendon) spans its bodies'
+  // chains; count both tendons of a tendon equality together
+  for (int t = 0; t < m->ntendon; t++) {
+    tendonBodies(m, t, mark);
+    int n = chainDofs(m, mark);
+    width = n > width ? n : width;
+  }
+  for (int e = 0; e < m->neq; e++) {
+    if (m->eq_type[e] == mjEQ_TENDON) {
+      tendonBodies(m, m->eq_obj1id[e], mark);
+      if (m->eq_obj2id[e] >= 0) tendonBodies(m, m->eq_obj2id[e], mark);
+      int n = chainDofs(m, mark);
+      width = n > width ? n : width;
+    }
+  }
+  free(mark);
+  return width < m->nv ? width : m->nv;
+}
+
+
 // allocate a context for (m, d); options from the model, check deferred to the step
 static ostContext* newContext(const mjModel* m, const mjData* d) {
   ostContext* c = (ostContext*)calloc(1, sizeof(ostContext));
@@ -58,7 +114,8 @@ static ostContext* newContext(const mjModel* m, const mjData* d) {
   c->state_end = (mjtNum*)calloc(1 + m->nq + 2 * m->nv, sizeof(mjtNum));
   c->state_start = (mjtNum*)calloc(1 + m->nq + 2 * m->nv, sizeof(mjtNum));
   int nrow_max = ost_rowCapacity(m);
-  size_t sz = ostu_worldSize(m->nv, nrow_max);
+  int ncol = ost_rowWidth(m);
+  size_t sz = ostu_worldSize(m->nv, ncol, nrow_max);
   c->world_buf = aligned_alloc(64, (sz + 63) / 64 * 64);
   if (!c->servo || !c->qpos_prev || !c->state_end || !c->state_start || !c->jac
       || !c->world_buf) {
@@ -66,7 +123,7 @@ static ostContext* newContext(const mjModel* m, const mjData* d) {
     return NULL;
   }
   memset(c->world_buf, 0, sz);
-  ostu_worldInit(&c->world, c->world_buf, m->nv, nrow_max, 0);
+  ostu_worldInit(&c->world, c->world_buf, m->nv, ncol, nrow_max, 0);
   ost_defaultOptions(&c->opt);
   c->model_dirty = 1;
   return c;

@@ -160,6 +160,10 @@ int ost_syncModel(ostContext* c, const mjModel* m);
 // contacts (<= 3 per contact, capacity nconmax) and one servo row per actuator (ost_context.c)
 int ost_rowCapacity(const mjModel* m);
 
+// the widest constraint row of m in dofs: two dof chains of the kinematic tree (ostu_rowWidth),
+// or the chains a tendon's bodies span, at most nv (ost_context.c)
+int ost_rowWidth(const mjModel* m);
+
 // the Newton and PCR settings of a step from the options (ost_step.c)
 ostSolverOptions ost_solverOptions(const ostOptions* o);
 

@@ -280,6 +280,7 @@ int ost_packModel(const mjModel* m, int ncon_max, ostModel* om, void** block, ch
   s.nhfield = m->nhfield;
   s.nhfielddata = m->nhfielddata;
   s.ncon_max = ncon_max;
+  s.ncol = ostu_rowWidth(m->dof_parentid, m->nv);
   ostNum* tvert = NULL;
   ostTerrain t;
   if (terrain >= 0) {

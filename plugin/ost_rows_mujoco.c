@@ -59,6 +59,12 @@ void ost_contactKey(const mjModel* m, const mjData* d, const mjContact* con, mjt
 }
 
 
+static int widthOverflow(ostContext* c) {
+  return ost_fail(c, OST_ERR_OVERFLOW, "a constraint row touches more than %d dofs (the width "
+                  "sized from the model's kinematic tree and tendons)", c->world.ncol);
+}
+
+
 // append the rows of one contact at rows[*n]: normal, and two tangents when fric; gap is the
 // row's distance offset (the user's margin - gap, with the look-ahead: dist - gap = row pos)
 static int contactRows(ostContext* c, const mjData* d, int g1, int g2, const mjtNum pos[3],
@@ -68,10 +74,13 @@ static int contactRows(ostContext* c, const mjData* d, int g1, int g2, const mjt
   if (*n + (fric ? 3 : 1) > w->nrow_max) {
     return ost_fail(c, OST_ERR_OVERFLOW, "row capacity %d exceeded", w->nrow_max);
   }
-  ostNum* Jn = w->J + (size_t)*n * nv;
+  ostNum* Jn = osti_rowScratch(w, *n);
   if (!contactJacobian(c, d, g1, g2, pos, frame, Jn, fric ? Jn + nv : NULL,
                        fric ? Jn + 2 * nv : NULL)) {
     return OST_OK;
+  }
+  if (osti_rowStore(w, *n, fric ? 3 : 1)) {
+    return widthOverflow(c);
   }
   for (int k = 0; k < (fric ? 3 : 1); k++) {
     ostRow* r = w->rows + *n + k;
@@ -191,7 +200,8 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
     ostRow* r = w->rows + n;
     memset(r, 0, sizeof(ostRow));
     r->normal = -1;
-    efcRow(m, d, i, w->J + (size_t)n * nv);
+    ostNum* J = osti_rowScratch(w, n);
+    efcRow(m, d, i, J);
     if (type == mjCNSTR_EQUALITY) {
       // sub-row index within one equality object (connect: 3 rows, weld: 6)
       sub = (n > 0 && r[-1].type == OST_ROW_EQUALITY && r[-1].obj[0] == d->efc_id[i]) ? sub + 1 : 0;
@@ -204,8 +214,11 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
       // the private model's joint margin includes the look-ahead; the gap keeps the user's
       r->type = OST_ROW_LIMIT;
       r->obj[0] = d->efc_id[i];
-      r->obj[1] = w->J[(size_t)n * nv + m->jnt_dofadr[d->efc_id[i]]] > 0;
+      r->obj[1] = J[m->jnt_dofadr[d->efc_id[i]]] > 0;
       r->pos = d->efc_pos[i] - d->efc_margin[i] + c->opt.margin;
+    }
+    if (osti_rowStore(w, n, 1)) {
+      return widthOverflow(c);
     }
     n++;
   }
@@ -257,7 +270,10 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
       }
       osti_servoRow(w->rows + n, i, g[0], b, ctrl, d->actuator_length[i], h,
                     m->actuator_forcelimited[i], m->actuator_forcerange + 2 * i);
-      memcpy(w->J + (size_t)n * nv, d->actuator_moment + (size_t)i * nv, nv * sizeof(ostNum));
+      memcpy(osti_rowScratch(w, n), d->actuator_moment + (size_t)i * nv, nv * sizeof(ostNum));
+      if (osti_rowStore(w, n, 1)) {
+        return widthOverflow(c);
+      }
       n++;
     }
   }

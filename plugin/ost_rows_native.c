@@ -15,6 +15,9 @@ int ost_rowsNative(ostContext* c, mjData* d, mjtNum h) {
                     "lower ostrich/margin", c->mo->nconmax, c->opt.margin);
   case OST_ROWS_ROW_OVERFLOW:
     return ost_fail(c, OST_ERR_OVERFLOW, "row capacity %d exceeded", c->world.nrow_max);
+  case OST_ROWS_WIDTH_OVERFLOW:
+    return ost_fail(c, OST_ERR_OVERFLOW, "a constraint row touches more than %d dofs (the "
+                    "width sized from the model's kinematic tree)", c->world.ncol);
   default:
     return OST_OK;
   }

@@ -58,7 +58,7 @@ echo "pkg-config: $flags"
 
 for exe in "$tmp/with_cmake/example" "$tmp/with_pkgconfig"; do
   # the program must load the installed library, not the build tree's
-  ldd "$exe" | grep -q "libostrich.so.* => $libdir/" || { ldd "$exe"; fail "$exe: libostrich"; }
+  ldd "$exe" | grep "libostrich.so.* => $libdir/" > /dev/null || { ldd "$exe"; fail "$exe: libostrich"; }
   out=$(OSTRICH_QUIET=1 "$exe" "$models/box_plane.xml") || fail "$exe exited $?: $out"
   echo "$(basename "$exe"): $out"
   echo "$out" >> "$tmp/outputs"

@@ -14,9 +14,19 @@ static ostSolverOptions options(void) {
 }
 
 static void* makeWorld(ostWorld* w, int nv, int nrow_max, double h) {
-  void* buf = aligned_alloc(64, ostu_worldSize(nv, nrow_max));
-  ostu_worldInit(w, buf, nv, nrow_max, h);
+  void* buf = aligned_alloc(64, ostu_worldSize(nv, nv, nrow_max));
+  ostu_worldInit(w, buf, nv, nv, nrow_max, h);
   return buf;
+}
+
+
+// store the dense rows J (n x nv) as the world's rows 0..n-1, as a geometry provider does
+static void setRows(ostWorld* w, const double* J, int n) {
+  for (int i = 0; i < n; i++) {
+    double* row = osti_rowScratch(w, i);
+    for (int j = 0; j < w->nv; j++) row[j] = J[i * w->nv + j];
+    ck_assert_int_eq(osti_rowStore(w, i, 1), 0);
+  }
 }
 
 // 1-dof mass m falling onto a floor 1 cm below with speed v: backward Euler with a hard
@@ -35,7 +45,7 @@ START_TEST(test_landing) {
   w.rows[0] = (ostRow){0};
   w.rows[0].type = OST_ROW_CONTACT;
   w.rows[0].normal = -1;
-  w.J[0] = 1;
+  setRows(&w, (double[]){1}, 1);
   w.lambda[0] = 0;
   double merit = 1;
   for (int k = 0; k < 20 && merit > 1e-12; k++) {
@@ -71,7 +81,7 @@ START_TEST(test_velocityServo) {
   w.rows[0].alpha = 1 / kv;
   w.rows[0].lo = -HUGE_VAL;
   w.rows[0].hi = HUGE_VAL;
-  w.J[0] = 1;
+  setRows(&w, (double[]){1}, 1);
   w.lambda[0] = 0;
   for (int k = 0; k < 3; k++) {
     osti_evaluate(&w, &o);
@@ -91,9 +101,7 @@ START_TEST(test_pcr) {
   osti_factorMass(&w);
   w.nrow = 3;
   double J[6] = {1, 0, 0, 1, 1, -1}, c[3] = {0.1, 0.2, 0.3}, diag[3];
-  for (int i = 0; i < 6; i++) w.J[i] = J[i];
-  for (int i = 0; i < 3; i++) w.rows[i] = (ostRow){0};
-  osti_rowPatterns(&w);  // the rows' patterns, as osti_evaluate computes them
+  setRows(&w, J, 3);
   for (int i = 0; i < 3; i++) {
     w.c[i] = c[i];
     diag[i] = ostu_cholNormSqr(w.tmp + 2, w.M, J + 2 * i, 2);
@@ -122,10 +130,12 @@ START_TEST(test_gmresSliding) {
   w.M[1] = w.M[nv] = 0.3;
   ck_assert_int_eq(osti_factorMass(&w), 0);
   w.nrow = n;
+  static double Jd[n * nv];
   for (int i = 0; i < n * nv; i++) {
     seed = seed * 1103515245u + 12345u;
-    w.J[i] = (double)(seed >> 8) / (1 << 24) - 0.5;
+    Jd[i] = (double)(seed >> 8) / (1 << 24) - 0.5;
   }
+  setRows(&w, Jd, n);
   for (int k = 0; k < ncon; k++) {
     int i = 3 * k, sliding = k % 3 == 0;
     w.rows[i] = (ostRow){0};
@@ -148,7 +158,6 @@ START_TEST(test_gmresSliding) {
   double b[n], x[n], y[n], A[n * n], e[n], xd[n];
   int piv[n];
   for (int i = 0; i < n; i++) b[i] = sin(1.0 + i) * (w.c[i] > 1 ? 1e12 : 1);
-  osti_rowPatterns(&w);
   int it = osti_gmres(&w, x, b, 400, 1e-14);
   ck_assert_int_gt(it, OST_KRYLOV);
   // the direct solution of the same operator
