@@ -205,10 +205,21 @@ OST_HD void osti_nativeStart(const ostModel* m, ostKin* k, ostWorld* w, const os
   osti_rne(m, k, qvel);
   osti_passive(m, k, qpos, qvel);
   osti_transmission(m, k, qpos);
-  for (int i = 0; i < nv * nv; i++) {
-    w->M[i] = k->qM[i];
+  // M is tree-sparse and factored without fill (ost_util_tree.h), which reads only the lower
+  // triangle on the tree's pattern; a residual-only world (no row patterns) multiplies by the
+  // whole matrix (osti_stepResidual) and gets all of it
+  if (w->Jnnz) {
+    for (int i = 0; i < nv; i++) {
+      for (int j = i; j >= 0; j = m->dof_parentid[j]) {
+        w->M[(size_t)i * nv + j] = k->qM[(size_t)i * nv + j];
+      }
+    }
+  } else {
+    for (int i = 0; i < nv * nv; i++) {
+      w->M[i] = k->qM[i];
+    }
   }
-  w->dof_parent = m->dof_parentid;  // M is tree-sparse: factored without fill
+  w->dof_parent = m->dof_parentid;
   for (int j = 0; j < nv; j++) {
     w->M[j * nv + j] += h * m->dof_damping[j];
     w->qfrc_explicit[j] = k->qfrc_passive[j] - k->qfrc_bias[j]

@@ -553,7 +553,8 @@ static const cliCommand kCommands[] = {
    gradcheck_main},
   {"compare", "A/B against stock MuJoCo: timestep sweeps, replay, identify, hard cases",
    compare_main},
-  {"bench", "benchmarks: `bench scale`, world scaling of the batch (cpu, cuda)", bench_main},
+  {"bench", "benchmarks: `bench scale`, world scaling of the batch (cpu, cuda); `bench models`,\n"
+   "             ost_step against mj_step per model and against nv", bench_main},
 };
 
 static const int kNumCommands = (int)(sizeof(kCommands) / sizeof(kCommands[0]));

@@ -325,12 +325,16 @@ static int benchScale(int argc, char** argv) {
 
 int bench_main(int argc, char** argv) {
   if (argc < 1 || !strcmp(argv[0], "--help") || !strcmp(argv[0], "-h")) {
-    printf("usage: ostrich bench scale [options]   (see ostrich bench scale --help)\n");
+    printf("usage: ostrich bench scale [options]   (see ostrich bench scale --help)\n"
+           "       ostrich bench models [options] MODEL.xml ...   (ostrich bench models --help)\n");
     return argc < 1 ? CLI_USAGE : CLI_OK;
   }
   if (!strcmp(argv[0], "scale")) {
     return benchScale(argc - 1, argv + 1);
   }
-  cli_error("bench: unknown benchmark '%s' (scale)", argv[0]);
+  if (!strcmp(argv[0], "models")) {
+    return bench_models_main(argc - 1, argv + 1);
+  }
+  cli_error("bench: unknown benchmark '%s' (scale, models)", argv[0]);
   return CLI_USAGE;
 }

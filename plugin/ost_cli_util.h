@@ -45,6 +45,10 @@ int gradcheck_main(int argc, char** argv);
 // `ostrich bench scale`: world scaling of the batched API (ost_cli_bench.c).
 int bench_main(int argc, char** argv);
 
+// `ostrich bench models`: ost_step against mj_step per model and against nv
+// (ost_cli_bench_models.c); called by bench_main.
+int bench_models_main(int argc, char** argv);
+
 
 //---------------------------------- Messages ------------------------------------------------------
 
