@@ -42,16 +42,17 @@ void ost_defaultGradOptions(ostGradOptions* go) {
 //---------------------------------- Records -------------------------------------------------------
 
 // bytes of one record: a header, then q- (nq), u- (nv), u+ (nv), ctrl (nu), qfrc_applied (nv),
-// xfrc_applied (6 nbody), lambda (nrow_max) and rows (nrow_max); independent of the budgets
-size_t ost_recordSize(const mjModel* m, int nrow_max) {
-  size_t nnum = m->nq + 3 * (size_t)m->nv + m->nu + 6 * (size_t)m->nbody + nrow_max;
-  return sizeof(ostRecordHead) + nnum * sizeof(mjtNum) + nrow_max * sizeof(ostRow);
+// xfrc_applied (6 nbody), lambda (nrow) and rows (nrow) of the rows the substep used;
+// independent of the budgets and of the row capacity
+size_t ost_recordSize(const mjModel* m, int nrow) {
+  size_t nnum = m->nq + 3 * (size_t)m->nv + m->nu + 6 * (size_t)m->nbody + nrow;
+  return sizeof(ostRecordHead) + nnum * sizeof(mjtNum) + nrow * sizeof(ostRow);
 }
 
 
-// pointers into the record block rec
-void ost_recordView(const mjModel* m, int nrow_max, void* rec, ostRecord* r) {
+size_t ost_recordView(const mjModel* m, void* rec, ostRecord* r) {
   r->head = (ostRecordHead*)rec;
+  int nrow_max = r->head->nrow;
   mjtNum* p = (mjtNum*)((char*)rec + sizeof(ostRecordHead));
   r->qpos_prev = p;     p += m->nq;
   r->qvel_prev = p;     p += m->nv;
@@ -61,6 +62,7 @@ void ost_recordView(const mjModel* m, int nrow_max, void* rec, ostRecord* r) {
   r->xfrc_applied = p;  p += 6 * m->nbody;
   r->lambda = p;        p += nrow_max;
   r->rows = (ostRow*)p;
+  return ost_recordSize(m, nrow_max);
 }
 
 
@@ -68,10 +70,11 @@ void ost_recordView(const mjModel* m, int nrow_max, void* rec, ostRecord* r) {
 int ost_recordSubstep(ostContext* c, const mjModel* m, const mjData* d, mjtNum h,
                       mjtNum residual, int bits) {
   ostWorld* w = &c->world;
-  size_t sz = ost_recordSize(m, w->nrow_max);
-  if (c->rec_n == c->rec_cap) {
-    int cap = c->rec_cap ? 2 * c->rec_cap : 2;
-    void* buf = realloc(c->rec_buf, cap * sz);
+  size_t sz = ost_recordSize(m, w->nrow);
+  if (c->rec_bytes + sz > c->rec_cap) {
+    size_t cap = c->rec_cap ? 2 * c->rec_cap : 2 * sz;
+    cap = cap < c->rec_bytes + sz ? c->rec_bytes + sz : cap;
+    void* buf = realloc(c->rec_buf, cap);
     if (!buf) {
       return ost_fail(c, OST_ERR_MEMORY, "cannot record the step for its gradient");
     }
@@ -79,9 +82,10 @@ int ost_recordSubstep(ostContext* c, const mjModel* m, const mjData* d, mjtNum h
     c->rec_cap = cap;
   }
   ostRecord r;
-  ost_recordView(m, w->nrow_max, (char*)c->rec_buf + c->rec_n * sz, &r);
+  ostRecordHead* head = (ostRecordHead*)((char*)c->rec_buf + c->rec_bytes);
+  head->nrow = w->nrow;
+  ost_recordView(m, head, &r);
   r.head->h = h;
-  r.head->nrow = w->nrow;
   r.head->step_end = 0;
   r.head->bits = bits;
   r.head->pad = 0;
@@ -94,6 +98,8 @@ int ost_recordSubstep(ostContext* c, const mjModel* m, const mjData* d, mjtNum h
   memcpy(r.xfrc_applied, d->xfrc_applied, 6 * m->nbody * sizeof(mjtNum));
   memcpy(r.lambda, w->lambda, w->nrow * sizeof(mjtNum));
   memcpy(r.rows, w->rows, w->nrow * sizeof(ostRow));
+  c->rec_last = c->rec_bytes;
+  c->rec_bytes += sz;
   c->rec_n++;
   return OST_OK;
 }
@@ -247,19 +253,18 @@ static int recordBackward(ostContext* c, const mjModel* m, const ostRecord* r,
 // that is not: the implicit function theorem differentiates F(x-, x+) = 0, which holds only where
 // Newton reached tol and no violation was kept (OST_DEPENETRATED shifts gaps by an allowance
 // measured at q-, which the derivative does not follow)
-static int recordsSolved(ostContext* c, const mjModel* m, void* recs, int n) {
-  size_t sz = ost_recordSize(m, c->world.nrow_max);
-  for (int k = 0; k < n; k++) {
+static int recordsSolved(ostContext* c, const mjModel* m, void* recs, size_t nbytes) {
+  for (size_t off = 0, k = 0; off < nbytes; k++) {
     ostRecord r;
-    ost_recordView(m, c->world.nrow_max, (char*)recs + k * sz, &r);
+    off += ost_recordView(m, (char*)recs + off, &r);
     if (r.head->bits & OST_NOT_CONVERGED) {
       return ost_fail(c, OST_ERR_NOT_CONVERGED, "substep %d did not converge (residual %.3g m/s "
                       "> tol %.3g): no exact gradient; raise ostrich/newton_iter or lower h",
-                      k, r.head->residual, c->opt.tol);
+                      (int)k, r.head->residual, c->opt.tol);
     }
     if (r.head->bits & OST_DEPENETRATED) {
       return ost_fail(c, OST_ERR_NOT_CONVERGED, "substep %d removed an initial violation at the "
-                      "bounded depenetration speed: no exact gradient", k);
+                      "bounded depenetration speed: no exact gradient", (int)k);
     }
   }
   return OST_OK;
@@ -268,19 +273,32 @@ static int recordsSolved(ostContext* c, const mjModel* m, void* recs, int n) {
 
 // backward pass over records [0, n) of a block (one step's substeps, or a tape's segment):
 // gq, gu (nv) hold the cotangents at the end on entry and at the start on return
-int ost_recordsBackward(ostContext* c, const mjModel* m, void* recs, int n,
+int ost_recordsBackward(ostContext* c, const mjModel* m, void* recs, size_t nbytes,
                         const ostGradOptions* go, mjtNum* gq, mjtNum* gu, mjtNum* gctrl,
                         mjtNum* gtheta) {
-  int status = recordsSolved(c, m, recs, n);
+  int status = recordsSolved(c, m, recs, nbytes);
   if (!status) {
     status = adjointPrepare(c, m);
   }
-  size_t sz = ost_recordSize(m, c->world.nrow_max);
+  // records differ in size: their offsets first, then the pass from the last one
+  int n = 0;
+  for (size_t off = 0; off < nbytes; n++) {
+    off += ost_recordSize(m, ((ostRecordHead*)((char*)recs + off))->nrow);
+  }
+  size_t* offs = (size_t*)malloc((n > 0 ? n : 1) * sizeof(size_t));
+  if (!offs) {
+    return ost_fail(c, OST_ERR_MEMORY, "cannot allocate");
+  }
+  for (size_t k = 0, off = 0; (int)k < n; k++) {
+    offs[k] = off;
+    off += ost_recordSize(m, ((ostRecordHead*)((char*)recs + off))->nrow);
+  }
   for (int k = n - 1; k >= 0 && !status; k--) {
     ostRecord r;
-    ost_recordView(m, c->world.nrow_max, (char*)recs + k * sz, &r);
+    ost_recordView(m, (char*)recs + offs[k], &r);
     status = recordBackward(c, m, &r, go, gq, gu, gctrl, gtheta);
   }
+  free(offs);
   return status;
 }
 
@@ -313,7 +331,8 @@ int ost_adjoint(const mjModel* m, const mjData* d, const ostGradOptions* go, con
   if (gctrl) {
     memset(gctrl, 0, m->nu * sizeof(mjtNum));
   }
-  int status = ost_recordsBackward(c, m, c->rec_buf, c->rec_n, go, g, g + nv, gctrl, gtheta);
+  int status = ost_recordsBackward(c, m, c->rec_buf, c->rec_bytes, go, g, g + nv, gctrl,
+                                   gtheta);
   if (!status) {
     if (gq_prev) memcpy(gq_prev, g, nv * sizeof(mjtNum));
     if (gu_prev) memcpy(gu_prev, g + nv, nv * sizeof(mjtNum));
@@ -325,13 +344,12 @@ int ost_adjoint(const mjModel* m, const mjData* d, const ostGradOptions* go, con
 
 // dense Jacobians of the records [0, n): x+ = (dq+, u+) by x- = (dq-, u-) into A (2nv x 2nv)
 // and by ctrl into B (2nv x nu), chaining substeps: A = A_n..A_1, B = sum A_n..A_{k+1} B_k
-static int recordsTransition(ostContext* c, const mjModel* m, void* recs, int n, mjtNum* A,
-                             mjtNum* B) {
+static int recordsTransition(ostContext* c, const mjModel* m, void* recs, size_t nbytes,
+                             mjtNum* A, mjtNum* B) {
   int nv = m->nv, nu = m->nu, nx = 2 * nv, status;
-  if ((status = recordsSolved(c, m, recs, n)) || (status = adjointPrepare(c, m))) {
+  if ((status = recordsSolved(c, m, recs, nbytes)) || (status = adjointPrepare(c, m))) {
     return status;
   }
-  size_t sz = ost_recordSize(m, c->world.nrow_max);
   mjtNum* T = (mjtNum*)calloc((size_t)nx * (nx + nu) * 3, sizeof(mjtNum));
   if (!T) {
     return ost_fail(c, OST_ERR_MEMORY, "cannot allocate");
@@ -342,9 +360,9 @@ static int recordsTransition(ostContext* c, const mjModel* m, void* recs, int n,
   for (int i = 0; i < nx; i++) {
     acc[i * (nx + nu) + i] = 1;
   }
-  for (int k = 0; k < n && !status; k++) {
+  for (size_t off = 0; off < nbytes && !status;) {
     ostRecord r;
-    ost_recordView(m, c->world.nrow_max, (char*)recs + k * sz, &r);
+    off += ost_recordView(m, (char*)recs + off, &r);
     int ny, *piv;
     if ((status = recordJacobian(c, m, &r, 0, 0, 1, &ny, &piv))) {
       break;
@@ -417,7 +435,7 @@ int ost_transition(const mjModel* m, mjData* d, mjtNum* A, mjtNum* B) {
   memcpy(save + nstate, d->ctrl, m->nu * sizeof(mjtNum));
   int status = ost_step(m, d);
   if (!status || OST_IS_WARNING(status)) {
-    status = recordsTransition(c, m, c->rec_buf, c->rec_n, A, B);
+    status = recordsTransition(c, m, c->rec_buf, c->rec_bytes, A, B);
   }
   d->time = save[0];
   memcpy(d->qpos, save + 1, m->nq * sizeof(mjtNum));
@@ -427,6 +445,7 @@ int ost_transition(const mjModel* m, mjData* d, mjtNum* A, mjtNum* B) {
   mj_forward(m, d);
   c->warm_valid = 0;
   c->rec_n = 0;
+  c->rec_bytes = 0;
   free(save);
   return status;
 }

@@ -74,9 +74,12 @@ typedef struct ostContext_ {
   void*          kin_buf;         // its kinematics' single allocation
   ostKin         kin;             // native kinematics, pointers into kin_buf
   ostWorld       world;           // core solver state, pointers into world_buf
-  void*          rec_buf;         // records of the last step's substeps (ost_adjoint.c)
+  void*          rec_buf;         // records of the last step's substeps (ost_adjoint.c), each
+                                  // sized to its rows (ost_recordSize), back to back
   int            rec_n;           // records in rec_buf
-  int            rec_cap;         // capacity of rec_buf in records
+  size_t         rec_bytes;       // bytes they take
+  size_t         rec_last;        // offset of the last one
+  size_t         rec_cap;         // capacity of rec_buf in bytes
   void*          adj_work;        // dual-number work block of the adjoint
   const void*    adj_model_block; // native_block it was made for
   int*           adj_fric_geom;   // per packed pair: geoms whose friction it takes (2 each)
@@ -174,20 +177,20 @@ size_t ost_warmSize(const ostContext* c);
 void ost_warmSave(const ostContext* c, void* buf);
 void ost_warmLoad(ostContext* c, const void* buf);
 
-// bytes of one substep record for a row capacity nrow_max
-size_t ost_recordSize(const mjModel* m, int nrow_max);
+// bytes of one substep record with nrow rows
+size_t ost_recordSize(const mjModel* m, int nrow);
 
-// pointers into the record block rec
-void ost_recordView(const mjModel* m, int nrow_max, void* rec, ostRecord* r);
+// pointers into the record at rec (its head's nrow sizes its rows); returns its size in bytes
+size_t ost_recordView(const mjModel* m, void* rec, ostRecord* r);
 
 // append the substep advance() just committed to the context's records, with its best merit
 // and its OST_NOT_CONVERGED / OST_DEPENETRATED bits
 int ost_recordSubstep(ostContext* c, const mjModel* m, const mjData* d, mjtNum h,
                       mjtNum residual, int bits);
 
-// backward pass over n records: (gq, gu) at their end in, at their start out; gctrl (nu) and
-// gtheta accumulate (either may be NULL)
-int ost_recordsBackward(ostContext* c, const mjModel* m, void* recs, int n,
+// backward pass over the records in the nbytes at recs: (gq, gu) at their end in, at their
+// start out; gctrl (nu) and gtheta accumulate (either may be NULL)
+int ost_recordsBackward(ostContext* c, const mjModel* m, void* recs, size_t nbytes,
                         const ostGradOptions* go, mjtNum* gq, mjtNum* gu, mjtNum* gctrl,
                         mjtNum* gtheta);
 

@@ -156,6 +156,7 @@ static void restoreStart(ostContext* c, const mjModel* m, mjData* d) {
 static int abortStep(ostContext* c, const mjModel* m, mjData* d, int status) {
   c->warm_valid = 0;
   c->rec_n = 0;
+  c->rec_bytes = 0;
   restoreStart(c, m, d);
   d->ncon = d->nefc = d->ne = d->nf = 0;
   mj_fwdPosition(m, d);
@@ -547,6 +548,7 @@ static int step2(ostContext* c, const mjModel* m, mjData* d) {
   w->depen_speed = c->opt.depenetration_speed;
   memset(&c->stats, 0, sizeof(c->stats));
   c->rec_n = 0;
+  c->rec_bytes = 0;
   saveState(m, d, c->state_start);
   if ((status = advance(c, m, d, h, 0, 1))) {
     if (status == OST_ERR_OVERFLOW) {
@@ -556,8 +558,7 @@ static int step2(ostContext* c, const mjModel* m, mjData* d) {
   }
   d->solver_iter = c->stats.newton_iter < mjNSOLVER ? c->stats.newton_iter : mjNSOLVER;
   ostRecord last;
-  ost_recordView(m, w->nrow_max, (char*)c->rec_buf
-                 + (c->rec_n - 1) * ost_recordSize(m, w->nrow_max), &last);
+  ost_recordView(m, (char*)c->rec_buf + c->rec_last, &last);
   last.head->step_end = 1;
 
   // publish: MuJoCo's own contacts and rows at q+ (look-ahead model: contacts within the

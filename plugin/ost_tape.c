@@ -1,6 +1,6 @@
 // ost_tape.c: recording a rollout and its backward pass (core/README.md section 2, "Memory").
 // Without checkpoints the tape keeps every substep's record (ost_adjoint.c: state, controls and
-// converged forces, a fixed number of bytes). With checkpoint S it keeps, per step, only the
+// converged forces, sized to the rows the substep used). With checkpoint S it keeps, per step, only the
 // inputs (controls and applied forces), and every S steps the state and the warm start; the
 // backward pass re-runs one segment of S steps at a time on a private mjData, bitwise as the
 // recorded run (same options, same warm start), and differentiates its records.
@@ -16,11 +16,11 @@ struct ostTape_ {
   int     checkpoint;             // S: steps per segment (0: keep every record)
   int     nstep;                  // steps recorded
   int     step_cap;               // capacity of the per-step arrays
-  int*    step_rec;               // first record of each step (no checkpoints)  (nstep + 1)
+  size_t* step_rec;               // byte offset in recs of each step's first record (no
+                                  // checkpoints: of the rollout; else: of the segment) (nstep + 1)
   void*   recs;                   // records (no checkpoints) or one segment's records
-  int     nrec;                   // records held
-  int     rec_cap;                // capacity of recs in records
-  size_t  rec_sz;                 // bytes per record
+  size_t  rec_bytes;              // bytes of records held
+  size_t  rec_cap;                // capacity of recs in bytes
   mjtNum* inputs;                 // per step: ctrl, qfrc_applied, xfrc_applied (checkpoints)
   int     ninput;                 // numbers per step in inputs
   int     input_cap;              // capacity of inputs in steps
@@ -52,7 +52,6 @@ ostTape* ost_tapeCreate(const mjModel* m, int checkpoint) {
     ost_tapeDelete(t);
     return NULL;
   }
-  t->rec_sz = ost_recordSize(m, c->world.nrow_max);
   t->ckpt_sz = (1 + m->nq + 2 * (size_t)m->nv) * sizeof(mjtNum) + ost_warmSize(c);
   return t;
 }
@@ -76,7 +75,7 @@ void ost_tapeDelete(ostTape* t) {
 void ost_tapeClear(ostTape* t) {
   if (t) {
     t->nstep = 0;
-    t->nrec = 0;
+    t->rec_bytes = 0;
     t->bad_step = -1;
     t->err[0] = 0;
   }
@@ -93,8 +92,8 @@ size_t ost_tapeBytes(const ostTape* t) {
     return 0;
   }
   size_t nckpt = t->ckpt_cap;
-  return sizeof(ostTape) + (size_t)t->rec_cap * t->rec_sz + nckpt * t->ckpt_sz
-         + (size_t)t->step_cap * sizeof(int) + (size_t)t->input_cap * t->ninput * sizeof(mjtNum);
+  return sizeof(ostTape) + t->rec_cap + nckpt * t->ckpt_sz
+         + (size_t)t->step_cap * sizeof(size_t) + (size_t)t->input_cap * t->ninput * sizeof(mjtNum);
 }
 
 
@@ -128,13 +127,23 @@ static int grow(void** buf, int* cap, int n, size_t sz) {
 }
 
 
-// append n records from a context's last step into recs
+// append the records of a context's last step into recs (capacity doubling, in bytes)
 static int appendRecords(ostTape* t, const ostContext* c) {
-  if (grow(&t->recs, &t->rec_cap, t->nrec + c->rec_n, t->rec_sz)) {
-    return 1;
+  size_t need = t->rec_bytes + c->rec_bytes;
+  if (need > t->rec_cap) {
+    size_t cap = t->rec_cap ? t->rec_cap : 4096;
+    while (cap < need) {
+      cap *= 2;
+    }
+    void* p = realloc(t->recs, cap);
+    if (!p) {
+      return 1;
+    }
+    t->recs = p;
+    t->rec_cap = cap;
   }
-  memcpy((char*)t->recs + t->nrec * t->rec_sz, c->rec_buf, c->rec_n * t->rec_sz);
-  t->nrec += c->rec_n;
+  memcpy((char*)t->recs + t->rec_bytes, c->rec_buf, c->rec_bytes);
+  t->rec_bytes = need;
   return 0;
 }
 
@@ -166,7 +175,7 @@ int ost_tapeStep(ostTape* t, const mjModel* m, mjData* d) {
       return tapeFail(t, OST_ERR_MODEL, ost_lastError(d));
     }
   }
-  if (grow((void**)&t->step_rec, &t->step_cap, k + 2, sizeof(int))
+  if (grow((void**)&t->step_rec, &t->step_cap, k + 2, sizeof(size_t))
       || (S && grow((void**)&t->inputs, &t->input_cap, k + 2, t->ninput * sizeof(mjtNum)))) {
     return tapeFail(t, OST_ERR_MEMORY, "cannot grow the tape");
   }
@@ -189,17 +198,17 @@ int ost_tapeStep(ostTape* t, const mjModel* m, mjData* d) {
   if (S) {
     // the inputs the step used (after mjcb_control), from its first record
     ostRecord r;
-    ost_recordView(m, c->world.nrow_max, c->rec_buf, &r);
+    ost_recordView(m, c->rec_buf, &r);
     mjtNum* in = t->inputs + (size_t)k * t->ninput;
     memcpy(in, r.ctrl, m->nu * sizeof(mjtNum));
     memcpy(in + m->nu, r.qfrc_applied, m->nv * sizeof(mjtNum));
     memcpy(in + m->nu + m->nv, r.xfrc_applied, 6 * m->nbody * sizeof(mjtNum));
   } else {
-    t->step_rec[k] = t->nrec;
+    t->step_rec[k] = t->rec_bytes;
     if (appendRecords(t, c)) {
       return tapeFail(t, OST_ERR_MEMORY, "cannot grow the tape");
     }
-    t->step_rec[k + 1] = t->nrec;
+    t->step_rec[k + 1] = t->rec_bytes;
   }
   t->nstep++;
   return status;
@@ -218,7 +227,7 @@ static int recomputeSegment(ostTape* t, int k0, int k1) {
   memcpy(d->qvel, s + 1 + m->nq, m->nv * sizeof(mjtNum));
   memcpy(d->qacc_warmstart, s + 1 + m->nq + m->nv, m->nv * sizeof(mjtNum));
   ost_warmLoad(c, s + 1 + m->nq + 2 * m->nv);
-  t->nrec = 0;
+  t->rec_bytes = 0;
   for (int k = k0; k < k1; k++) {
     const mjtNum* in = t->inputs + (size_t)k * t->ninput;
     memcpy(d->ctrl, in, m->nu * sizeof(mjtNum));
@@ -228,12 +237,12 @@ static int recomputeSegment(ostTape* t, int k0, int k1) {
     if (status && !OST_IS_WARNING(status)) {
       return tapeFail(t, status, ost_lastError(d));
     }
-    t->step_rec[k - k0] = t->nrec;
+    t->step_rec[k - k0] = t->rec_bytes;
     if (appendRecords(t, c)) {
       return tapeFail(t, OST_ERR_MEMORY, "cannot grow the tape");
     }
   }
-  t->step_rec[k1 - k0] = t->nrec;
+  t->step_rec[k1 - k0] = t->rec_bytes;
   return OST_OK;
 }
 
@@ -282,8 +291,8 @@ int ost_tapeBackward(ostTape* t, const mjModel* m, const ostGradOptions* go, con
       g[i] += gq ? gq[(size_t)(k + 1) * nv + i] : 0;
       g[nv + i] += gu ? gu[(size_t)(k + 1) * nv + i] : 0;
     }
-    int r0 = t->step_rec[k - base], r1 = t->step_rec[k - base + 1];
-    status = ost_recordsBackward(c, m, (char*)t->recs + r0 * t->rec_sz, r1 - r0, go, g, g + nv,
+    size_t r0 = t->step_rec[k - base], r1 = t->step_rec[k - base + 1];
+    status = ost_recordsBackward(c, m, (char*)t->recs + r0, r1 - r0, go, g, g + nv,
                                  gctrl ? gctrl + (size_t)k * nu : NULL, gtheta);
     if (status) {
       char msg[512];
