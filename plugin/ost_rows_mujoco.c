@@ -27,19 +27,79 @@ static void efcRow(const mjModel* m, const mjData* d, int i, ostNum* J) {
 }
 
 
-// rows n, t1, t2 of a contact between geoms g1, g2 at pos with frame: frame rows times
-// (J(body2) - J(body1)) at the contact point; returns 0 if the contact moves no degree of freedom
-static int contactJacobian(ostContext* c, const mjData* d, int g1, int g2, const mjtNum pos[3],
-                           const mjtNum frame[9], ostNum* Jn, ostNum* Jt1, ostNum* Jt2) {
-  const mjModel* m = c->mo;
+// the translational Jacobian of body b at pos, on b's dof chain only, into jac (3 x nv, rows
+// apart by nv; entries off the chain are left as they are), as mj_jac computes it
+// (engine_support.c): column j = cdof_lin + cdof_ang x (pos - subtree_com of b's root).
+// Returns the chain's last dof, or -1 if b moves with the world.
+static int chainJacobian(const mjModel* m, const mjData* d, mjtNum* jac, const mjtNum pos[3],
+                         int b) {
   int nv = m->nv;
+  mjtNum offset[3], tmp[3];
+  mju_sub3(offset, pos, d->subtree_com + 3 * m->body_rootid[b]);
+  while (b && !m->body_dofnum[b]) {
+    b = m->body_parentid[b];
+  }
+  if (!b) {
+    return -1;
+  }
+  int last = m->body_dofadr[b] + m->body_dofnum[b] - 1;
+  for (int j = last; j >= 0; j = m->dof_parentid[j]) {
+    const mjtNum* cdof = d->cdof + 6 * j;
+    mju_cross(tmp, cdof, offset);
+    jac[j] = cdof[3] + tmp[0];
+    jac[nv + j] = cdof[4] + tmp[1];
+    jac[2 * nv + j] = cdof[5] + tmp[2];
+  }
+  return last;
+}
+
+
+// zero the 3 rows (apart by nv) of jac on the dof chain ending at last
+static void chainZero(const mjModel* m, mjtNum* jac, int rows, int last) {
+  for (int j = last; j >= 0; j = m->dof_parentid[j]) {
+    for (int r = 0; r < rows; r++) {
+      jac[r * m->nv + j] = 0;
+    }
+  }
+}
+
+
+// the rows n, t1, t2 (apart by nv in J) of a contact on dof chain `last` (osti_contactRows'
+// arithmetic, column by column); returns 1 if a column is non-zero
+static int chainRows(const mjModel* m, const mjtNum frame[9], const mjtNum* j1, const mjtNum* j2,
+                     int last, int fric, ostNum* J) {
+  int nv = m->nv, any = 0;
+  for (int j = last; j >= 0; j = m->dof_parentid[j]) {
+    mjtNum dx = j2[j] - j1[j], dy = j2[nv + j] - j1[nv + j], dz = j2[2 * nv + j] - j1[2 * nv + j];
+    J[j] = frame[0] * dx + frame[1] * dy + frame[2] * dz;
+    if (fric) {
+      J[nv + j] = frame[3] * dx + frame[4] * dy + frame[5] * dz;
+      J[2 * nv + j] = frame[6] * dx + frame[7] * dy + frame[8] * dz;
+    }
+    any |= J[j] != 0;
+  }
+  return any;
+}
+
+
+// rows n, t1, t2 of a contact between geoms g1, g2 at pos with frame into J (rows apart by nv,
+// zero on entry and zero off the two bodies' dof chains): frame rows times (J(body2) -
+// J(body1)) at the contact point, computed on the chains only (O(depth), not O(nv)).
+// c->jac is zero between calls. Returns 0 if the contact moves no degree of freedom;
+// *last1, *last2 get the chains (for chainZero after the rows are stored).
+static int contactJacobian(ostContext* c, const mjData* d, int g1, int g2, const mjtNum pos[3],
+                           const mjtNum frame[9], int fric, ostNum* J, int* last1, int* last2) {
+  const mjModel* m = c->mo;
   mjtNum* j1 = c->jac;
-  mjtNum* j2 = c->jac + 3 * nv;
+  mjtNum* j2 = c->jac + 3 * m->nv;
   int b1 = m->geom_bodyid[g1], b2 = m->geom_bodyid[g2];
-  memset(c->jac, 0, 6 * nv * sizeof(mjtNum));
-  if (b1 > 0) mj_jac(m, d, j1, NULL, pos, b1);
-  if (b2 > 0) mj_jac(m, d, j2, NULL, pos, b2);
-  return osti_contactRows(frame, j1, j2, nv, Jn, Jt1, Jt2);
+  *last1 = b1 > 0 ? chainJacobian(m, d, j1, pos, b1) : -1;
+  *last2 = b2 > 0 ? chainJacobian(m, d, j2, pos, b2) : -1;
+  int any = chainRows(m, frame, j1, j2, *last1, fric, J);
+  any |= chainRows(m, frame, j1, j2, *last2, fric, J);
+  chainZero(m, j1, 3, *last1);
+  chainZero(m, j2, 3, *last2);
+  return any;
 }
 
 
@@ -70,16 +130,19 @@ static int widthOverflow(ostContext* c) {
 static int contactRows(ostContext* c, const mjData* d, int g1, int g2, const mjtNum pos[3],
                        const mjtNum frame[9], mjtNum dist, mjtNum mu, int fric, int* n) {
   ostWorld* w = &c->world;
-  int nv = c->mo->nv;
   if (*n + (fric ? 3 : 1) > w->nrow_max) {
     return ost_fail(c, OST_ERR_OVERFLOW, "row capacity %d exceeded", w->nrow_max);
   }
-  ostNum* Jn = osti_rowScratch(w, *n);
-  if (!contactJacobian(c, d, g1, g2, pos, frame, Jn, fric ? Jn + nv : NULL,
-                       fric ? Jn + 2 * nv : NULL)) {
+  ostNum* J = osti_rowScratch(w, *n);  // zero off the chains (ost_rowsMujoco)
+  int last1, last2;
+  int moves = contactJacobian(c, d, g1, g2, pos, frame, fric, J, &last1, &last2);
+  int wide = moves && osti_rowStore(w, *n, fric ? 3 : 1);
+  chainZero(c->mo, J, 3, last1);  // keep the scratch zero for the next contact
+  chainZero(c->mo, J, 3, last2);
+  if (!moves) {
     return OST_OK;
   }
-  if (osti_rowStore(w, *n, fric ? 3 : 1)) {
+  if (wide) {
     return widthOverflow(c);
   }
   for (int k = 0; k < (fric ? 3 : 1); k++) {
@@ -222,6 +285,10 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
     }
     n++;
   }
+
+  // contact rows: the scratch rows start at zero, each contact writes and clears its chains
+  memset(osti_rowScratch(w, n), 0, 3 * (size_t)nv * sizeof(ostNum));
+  memset(c->jac, 0, 6 * (size_t)nv * sizeof(mjtNum));
 
   // contact rows: normal then two tangents in the contact frame (frame[0:3] from geom1 to
   // geom2, so J_n u > 0 separates); contacts within the look-ahead distance are candidates.
