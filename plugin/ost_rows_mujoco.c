@@ -236,7 +236,12 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
   mj_tendon(m, d);
   mj_transmission(m, d);
   mj_collision(m, d);
+  // MuJoCo's rows for equalities and joint limits only: the contacts get Ostrich's own rows
+  // below, so MuJoCo's contact rows (a pyramid or cone Jacobian per contact) are not built
+  int ncon = d->ncon;
+  d->ncon = 0;
   mj_makeConstraint(m, d);
+  d->ncon = ncon;
   if (d->warning[mjWARN_CONTACTFULL].number != warn_con) {
     return ost_fail(c, OST_ERR_OVERFLOW, "contact capacity exceeded: more than nconmax=%d "
                     "contacts with the look-ahead (ostrich/margin %g m widens every margin, so "
