@@ -5,7 +5,8 @@
 // takes one untimed step and resets first, so allocation and model packing are not timed. With
 // --scaling, models of N copies of MuJoCo's humanoid are generated on a grid into a temporary
 // directory (mkdtemp, removed before returning), stepped by both engines at the same h, and
-// log(time per step) is fitted against log(nv) by least squares for each engine.
+// log(time per step) is fitted against log(nv) by least squares for each engine. The timing
+// loop mirrors MuJoCo's sample/testspeed.cc.
 // Invariant: every figure printed was measured in this run; a refused model, a failed step and
 // a run stopped by --max-wall are reported as such, never dropped.
 #define _POSIX_C_SOURCE 200809L
