@@ -101,6 +101,26 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNu
   X(int, Jind, OST_SOLVER_ROWS(nrow_max), ncol) /* their indices, ascending                  */   \
   X(ostNum, Jrow, OST_SOLVER_ROWS(3), nv)    /* dense rows a provider writes (osti_rowScratch) */ \
   X(unsigned char, colmark, OST_SOLVER_ROWS(nv), 1) /* pattern scratch, all zero between calls */ \
+  X(ostNum, merit_row, OST_SOLVER_ROWS(nrow_max), 2) /* row i's squared merit terms (friction, own) */ \
+  X(ostNum, xloc, OST_SOLVER_ROWS(nrow_max), 2) /* an island's Schur right-hand side, solution */ \
+  /* islands (ost_island.h): at most one per tree, so nv bounds their number */                \
+  X(int, tree_end, OST_SOLVER_ROWS(nv), 1)   /* a tree's root dof: one past its last dof   */   \
+  X(int, uf, OST_SOLVER_ROWS(nv), 1)         /* union-find scratch over dofs               */   \
+  X(int, dof_island, OST_SOLVER_ROWS(nv), 1) /* island of each dof, this iterate           */   \
+  X(int, dof_island_base, OST_SOLVER_ROWS(nv), 1) /* and of the line search's base iterate */   \
+  X(int, row_island, OST_SOLVER_ROWS(nrow_max), 1) /* island of each row, this iterate     */   \
+  X(int, row_island_prev, OST_SOLVER_ROWS(nrow_max), 1) /* of the base iterate's rows      */   \
+  X(int, isl_row, OST_SOLVER_ROWS(nrow_max), 1) /* rows grouped by island, ascending       */   \
+  X(int, isl_row_adr, OST_SOLVER_ROWS(nv + 1), 1) /* island I's rows start here           */   \
+  X(int, isl_tree, OST_SOLVER_ROWS(nv), 1)   /* tree roots grouped by island               */   \
+  X(int, isl_tree_adr, OST_SOLVER_ROWS(nv + 1), 1) /* island I's trees start here         */   \
+  X(unsigned char, isl_done, OST_SOLVER_ROWS(nv), 1) /* island converged: no more direction */ \
+  X(unsigned char, isl_acc, OST_SOLVER_ROWS(nv), 1) /* island's line search accepted        */ \
+  X(ostNum, isl_num, OST_SOLVER_ROWS(nv), 6) /* per island: merit, base, alpha, lowest, its alpha, last alpha */ \
+  X(ostNum, best_dof, OST_SOLVER_ROWS(nv), 1) /* best merit of the dof's island so far      */   \
+  X(int, bestk_dof, OST_SOLVER_ROWS(nv), 1)  /* iterate of that best                        */   \
+  X(ostRow, rows_best, OST_SOLVER_ROWS(nrow_max), 1) /* rows of each island's best iterate */    \
+  X(int, anchor_best, OST_SOLVER_ROWS(nrow_max), 1) /* their first pattern dof (island key) */  \
   X(unsigned char, used,          nrow_max, 1)   /* matching scratch                       */
 
 typedef struct ostWorld_ {        // one world: sizes and pointers into one allocation
@@ -112,6 +132,8 @@ typedef struct ostWorld_ {        // one world: sizes and pointers into one allo
   int    prev_jac;                // 1 if J_prev holds the base iterate's Jacobians
   int    nrow_relax;              // entries of rows_relax this step (0: none)
   int    ncol;                    // columns a stored row of J can hold (ostu_rowWidth)
+  int    nisland;                 // islands of the evaluated iterate (0: one system, no islands)
+  int    nrow_best;               // entries of rows_best
   ostNum h;                       // timestep (s)
   ostNum lookahead;               // contacts are reported up to this gap (m)
   ostNum depen_speed;             // bounded removal speed of violations at q- (0: at once)
@@ -167,6 +189,8 @@ OST_HD void ostu_worldInitFor(ostWorld* w, void* buf, int nv, int ncol, int nrow
   w->prev_jac = 0;
   w->nrow_relax = 0;
   w->ncol = solver ? ncol : nv;
+  w->nisland = 0;
+  w->nrow_best = 0;
   w->h = h;
   w->lookahead = 0;
   w->depen_speed = 0;
@@ -489,7 +513,7 @@ OST_HD ostNum osti_evaluate(ostWorld* w, const ostSolverOptions* opt) {
   for (int i = 0; i < nrow; i++) {
     const ostRow* r = w->rows + i;
     ostNum lam = w->lambda[i];
-    ostNum m_i;
+    ostNum m_i, fric2 = 0;
     switch (r->type) {
     case OST_ROW_EQUALITY: {
       // c(q+) + E lambda = 0, linearized as h J du + E dlambda = -r                   (eq. 3)
@@ -511,7 +535,9 @@ OST_HD ostNum osti_evaluate(ostWorld* w, const ostSolverOptions* opt) {
       w->rho[i] = phi / (h * a);
       m_i = phi / h;
       if (i + 2 < nrow && w->rows[i + 1].type == OST_ROW_FRICTION && w->rows[i + 1].normal == i) {
-        merit += osti_frictionRows(w, i, opt->reg, opt->creep);
+        ostNum mf = osti_frictionRows(w, i, opt->reg, opt->creep);
+        merit += mf;
+        fric2 = mf;
       }
       break;
     }
@@ -543,34 +569,137 @@ OST_HD ostNum osti_evaluate(ostWorld* w, const ostSolverOptions* opt) {
       break;
     }
     merit += m_i * m_i;
+    if (w->merit_row) {  // per-row terms, in the order merit sums them (islands add them up)
+      w->merit_row[2 * i] = fric2;
+      w->merit_row[2 * i + 1] = m_i * m_i;
+    }
   }
   return merit;
 }
 
 
-// y = A x = J Mt^-1 J' x + (c / h) x, applied matrix-free
-OST_HD void osti_schurApply(ostWorld* w, ostNum* OST_RESTRICT y, const ostNum* x) {
-  int nrow = w->nrow;
-  ostNum* t = w->tmp;
-  osti_mulJT(w, t, x);
-  osti_massSolve(w, t);
-  for (int i = 0; i < nrow; i++) {
-    y[i] = osti_rowDot(w, i, t) + w->c[i] / w->h * x[i];
+//---------------------------------- Row sets and the Schur operator --------------------------------
+// The Schur system is block diagonal over islands (ost_island.h): rows that share no degree of
+// freedom, through a contact, a joint or a kinematic tree, do not couple. Each island's block is
+// solved on its own, in local vectors indexed by the island's rows. A row set names the rows
+// (ascending) and the trees (root dofs, whose dofs are contiguous) of one island; the set of the
+// whole world has row = NULL (rows 0..n-1) and tree = NULL (every dof).
+
+typedef struct ostRowSet_ {       // rows and trees the Schur operator runs on
+  const int* row;                 // rows, ascending (NULL: rows 0 .. n-1)
+  int        n;                   // their number
+  const int* tree;                // root dofs of the trees (NULL: all dofs)
+  int        ntree;               // their number
+} ostRowSet;
+
+#define OST_SET_ROW(set, l) ((set)->row ? (set)->row[l] : (l))
+
+// the set of all rows and dofs of the current iterate
+OST_HD ostRowSet osti_wholeSet(const ostWorld* w) {
+  ostRowSet set = {NULL, w->nrow, NULL, 0};
+  return set;
+}
+
+
+// x = Mt^-1 x on the set's trees (x is left untouched elsewhere): the tree factor couples no
+// two trees, so each tree's dofs [root, tree_end[root]) solve alone
+OST_HD void osti_massSolveSet(const ostWorld* w, const ostRowSet* set, ostNum* x) {
+  if (!set->tree || !w->dof_parent) {
+    osti_massSolve(w, x);
+    return;
+  }
+  int nv = w->nv;
+  for (int t = 0; t < set->ntree; t++) {
+    int r0 = set->tree[t], r1 = w->tree_end[r0];
+    for (int i = r1 - 1; i >= r0; i--) {  // L^-T
+      ostNum xi = x[i];
+      if (OSTU_SKIPPABLE(xi)) {
+        continue;
+      }
+      for (int j = w->dof_parent[i]; j >= 0; j = w->dof_parent[j]) {
+        x[j] -= w->M[(size_t)i * nv + j] * xi;
+      }
+    }
+    for (int i = r0; i < r1; i++) {  // D^-1
+      x[i] /= w->M[(size_t)i * nv + i];
+    }
+    for (int i = r0; i < r1; i++) {  // L^-1
+      ostNum s = x[i];
+      for (int j = w->dof_parent[i]; j >= 0; j = w->dof_parent[j]) {
+        s -= w->M[(size_t)i * nv + j] * x[j];
+      }
+      x[i] = s;
+    }
   }
 }
 
 
-// preconditioned conjugate residual for A x = b (A symmetric), Jacobi preconditioner
-// P = diag(A)^-1; x starts at 0; returns the iterations used
-OST_HD int osti_pcr(ostWorld* w, ostNum* x, const ostNum* b, int maxit, ostNum rtol) {
-  int n = w->nrow;
+// t = J' x over the set's rows (x local), zero on the set's other dofs
+OST_HD void osti_mulJTSet(const ostWorld* w, const ostRowSet* set, ostNum* OST_RESTRICT t,
+                          const ostNum* x) {
+  if (!set->tree) {
+    for (int j = 0; j < w->nv; j++) {
+      t[j] = 0;
+    }
+  } else {
+    for (int k = 0; k < set->ntree; k++) {
+      for (int j = set->tree[k]; j < w->tree_end[set->tree[k]]; j++) {
+        t[j] = 0;
+      }
+    }
+  }
+  int len = w->Jnnz ? w->ncol : w->nv;
+  for (int l = 0; l < set->n; l++) {
+    int i = OST_SET_ROW(set, l);
+    ostNum xi = x[l];
+    if (OSTU_SKIPPABLE(xi)) {
+      continue;
+    }
+    const ostNum* v = w->J + (size_t)i * len;
+    if (!w->Jnnz) {
+      for (int j = 0; j < w->nv; j++) t[j] += v[j] * xi;
+      continue;
+    }
+    const int* ind = w->Jind + (size_t)i * len;
+    for (int k = 0; k < w->Jnnz[i]; k++) {
+      t[ind[k]] += v[k] * xi;
+    }
+  }
+}
+
+
+// y = A x = J Mt^-1 J' x + (c / h) x on a set (x, y local), applied matrix-free
+OST_HD void osti_schurApplySet(ostWorld* w, const ostRowSet* set, ostNum* OST_RESTRICT y,
+                               const ostNum* x) {
+  ostNum* t = w->tmp;
+  osti_mulJTSet(w, set, t, x);
+  osti_massSolveSet(w, set, t);
+  for (int l = 0; l < set->n; l++) {
+    int i = OST_SET_ROW(set, l);
+    y[l] = osti_rowDot(w, i, t) + w->c[i] / w->h * x[l];
+  }
+}
+
+
+// y = A x on every row
+OST_HD void osti_schurApply(ostWorld* w, ostNum* OST_RESTRICT y, const ostNum* x) {
+  ostRowSet set = osti_wholeSet(w);
+  osti_schurApplySet(w, &set, y, x);
+}
+
+
+// preconditioned conjugate residual for A x = b (A symmetric) on a set (x, b local), Jacobi
+// preconditioner P = diag(A)^-1; x starts at 0; returns the iterations used
+OST_HD int osti_pcrSet(ostWorld* w, const ostRowSet* set, ostNum* x, const ostNum* b, int maxit,
+                       ostNum rtol) {
+  int n = set->n;
   ostNum* r = w->pcr + (size_t)w->nrow_max;
   ostNum* z = r + w->nrow_max;
   ostNum* p = z + w->nrow_max;
   ostNum* Az = p + w->nrow_max;
   ostNum* Ap = Az + w->nrow_max;
-  // P_i = 1 / (J_i Mt^-1 J_i' + c_i / h)
-#define OST_PREC(i) (1 / (w->diag[i] + w->c[i] / w->h))
+  // P_l = 1 / (J_i Mt^-1 J_i' + c_i / h), i the set's l-th row
+#define OST_PREC(l) (1 / (w->diag[OST_SET_ROW(set, l)] + w->c[OST_SET_ROW(set, l)] / w->h))
   ostNum bnorm2 = 0;
   for (int i = 0; i < n; i++) {
     x[i] = 0;
@@ -582,7 +711,7 @@ OST_HD int osti_pcr(ostWorld* w, ostNum* x, const ostNum* b, int maxit, ostNum r
   if (n == 0 || bnorm2 == 0) {
     return 0;
   }
-  osti_schurApply(w, Az, z);
+  osti_schurApplySet(w, set, Az, z);
   ostNum rz = ostu_dot(z, Az, n);
   for (int i = 0; i < n; i++) {
     Ap[i] = Az[i];
@@ -610,7 +739,7 @@ OST_HD int osti_pcr(ostWorld* w, ostNum* x, const ostNum* b, int maxit, ostNum r
       break;
     }
     // new direction p = z + beta p, A p = A z + beta A p
-    osti_schurApply(w, Az, z);
+    osti_schurApplySet(w, set, Az, z);
     ostNum rz_new = ostu_dot(z, Az, n);
     ostNum beta = rz_new / rz;
     rz = rz_new;
@@ -624,6 +753,13 @@ OST_HD int osti_pcr(ostWorld* w, ostNum* x, const ostNum* b, int maxit, ostNum r
 }
 
 
+// PCR on every row
+OST_HD int osti_pcr(ostWorld* w, ostNum* x, const ostNum* b, int maxit, ostNum rtol) {
+  ostRowSet set = osti_wholeSet(w);
+  return osti_pcrSet(w, &set, x, b, maxit, rtol);
+}
+
+
 // 1 if row i is a contact sliding under normal force (osti_frictionRows set W[i]): its friction
 // force along the slip, mu lambda_n, then moves with lambda_n
 OST_HD int osti_slidingCoupled(const ostWorld* w, int i) {
@@ -632,10 +768,10 @@ OST_HD int osti_slidingCoupled(const ostWorld* w, int i) {
 }
 
 
-// 1 if the evaluated iterate has a sliding coupling: the Newton system is then not symmetric
-OST_HD int osti_hasSlidingCoupling(const ostWorld* w) {
-  for (int i = 0; i < w->nrow; i++) {
-    if (osti_slidingCoupled(w, i)) {
+// 1 if a row of the set has a sliding coupling: its Newton system is then not symmetric
+OST_HD int osti_hasSlidingCouplingSet(const ostWorld* w, const ostRowSet* set) {
+  for (int l = 0; l < set->n; l++) {
+    if (osti_slidingCoupled(w, OST_SET_ROW(set, l))) {
       return 1;
     }
   }
@@ -643,18 +779,27 @@ OST_HD int osti_hasSlidingCoupling(const ostWorld* w) {
 }
 
 
-// y = A x plus the coupling of sliding friction: the row along the slip of a sliding contact
-// linearizes G_par = lambda_par - mu lambda_n (osti_frictionRows) completely, c (dlambda_par -
-// mu dlambda_n) + J du = -rho, so A gets -(c / h) mu in that row's normal column. Without it the
+// y = A x plus the coupling of sliding friction on a set (x, y local; a contact's three rows
+// are consecutive in every set): the row along the slip of a sliding contact linearizes
+// G_par = lambda_par - mu lambda_n (osti_frictionRows) completely, c (dlambda_par - mu
+// dlambda_n) + J du = -rho, so A gets -(c / h) mu in that row's normal column. Without it the
 // normal force is lagged by one iterate, and Newton stalls or cycles when normal loads and
 // sliding friction move together (a skid-steered robot turning: merit stuck at 1e-2 m/s).
-OST_HD void osti_newtonApply(ostWorld* w, ostNum* OST_RESTRICT y, const ostNum* x) {
-  osti_schurApply(w, y, x);
-  for (int i = 0; i < w->nrow; i++) {
+OST_HD void osti_newtonApplySet(ostWorld* w, const ostRowSet* set, ostNum* OST_RESTRICT y,
+                                const ostNum* x) {
+  osti_schurApplySet(w, set, y, x);
+  for (int l = 0; l + 1 < set->n; l++) {
+    int i = OST_SET_ROW(set, l);
     if (osti_slidingCoupled(w, i)) {
-      y[i + 1] -= w->c[i + 1] / w->h * w->rows[i].mu * x[i];
+      y[l + 1] -= w->c[i + 1] / w->h * w->rows[i].mu * x[l];
     }
   }
+}
+
+
+OST_HD void osti_newtonApply(ostWorld* w, ostNum* OST_RESTRICT y, const ostNum* x) {
+  ostRowSet set = osti_wholeSet(w);
+  osti_newtonApplySet(w, &set, y, x);
 }
 
 
@@ -666,19 +811,20 @@ OST_HD void osti_givens(ostNum* a, ostNum* b, ostNum cs, ostNum sn) {
 }
 
 
-// restarted GMRES(OST_KRYLOV) for the non-symmetric Newton system (osti_newtonApply) x = b,
-// left-preconditioned by the Jacobi diagonal P = diag(A)^-1 of osti_pcr: it minimizes |P (b - A
-// x)| (Saad, Iterative Methods for Sparse Linear Systems, alg. 9.4). Left, because a sliding
-// row's coupling entry -(c/h) mu is as large as its diagonal c/h (c ~ 1e12 k_f): P A scales that
-// row to dlambda_par - mu dlambda_n, while A P would carry 1e12-sized entries. x starts at 0;
-// returns the iterations used
-OST_HD int osti_gmres(ostWorld* w, ostNum* x, const ostNum* b, int maxit, ostNum rtol) {
-  int n = w->nrow, ld = w->nrow_max;
+// restarted GMRES(OST_KRYLOV) for the non-symmetric Newton system (osti_newtonApplySet) x = b
+// on a set (x, b local), left-preconditioned by the Jacobi diagonal P = diag(A)^-1 of osti_pcr:
+// it minimizes |P (b - A x)| (Saad, Iterative Methods for Sparse Linear Systems, alg. 9.4).
+// Left, because a sliding row's coupling entry -(c/h) mu is as large as its diagonal c/h
+// (c ~ 1e12 k_f): P A scales that row to dlambda_par - mu dlambda_n, while A P would carry
+// 1e12-sized entries. x starts at 0; returns the iterations used
+OST_HD int osti_gmresSet(ostWorld* w, const ostRowSet* set, ostNum* x, const ostNum* b, int maxit,
+                         ostNum rtol) {
+  int n = set->n, ld = w->nrow_max;
   const int hc = OST_KRYLOV + 4;  // row length of hess: H (OST_KRYLOV), then cs, sn, g, y
   ostNum* V = w->krylov;          // basis vectors V_j = V + j ld
   ostNum* H = w->hess;            // H_ij = H[i hc + j]
   ostNum* r = w->pcr + ld;        // scratch: preconditioned residual
-#define OST_PRECOND(i) (1 / (w->diag[i] + w->c[i] / w->h))
+#define OST_PRECOND(l) (1 / (w->diag[OST_SET_ROW(set, l)] + w->c[OST_SET_ROW(set, l)] / w->h))
 #define OST_CS(j) H[(j) * hc + OST_KRYLOV]
 #define OST_SN(j) H[(j) * hc + OST_KRYLOV + 1]
 #define OST_G(j) H[(j) * hc + OST_KRYLOV + 2]
@@ -703,7 +849,7 @@ OST_HD int osti_gmres(ostWorld* w, ostNum* x, const ostNum* b, int maxit, ostNum
     while (j < OST_KRYLOV && it < maxit) {
       it++;
       ostNum* vn = V + (size_t)(j + 1) * ld;
-      osti_newtonApply(w, vn, V + (size_t)j * ld);
+      osti_newtonApplySet(w, set, vn, V + (size_t)j * ld);
       for (int i = 0; i < n; i++) {
         vn[i] *= OST_PRECOND(i);
       }
@@ -752,7 +898,7 @@ OST_HD int osti_gmres(ostWorld* w, ostNum* x, const ostNum* b, int maxit, ostNum
       break;
     }
     // restart from the preconditioned residual P (b - A x)
-    osti_newtonApply(w, r, x);
+    osti_newtonApplySet(w, set, r, x);
     for (int i = 0; i < n; i++) {
       r[i] = OST_PRECOND(i) * (b[i] - r[i]);
     }
@@ -770,13 +916,30 @@ OST_HD int osti_gmres(ostWorld* w, ostNum* x, const ostNum* b, int maxit, ostNum
 }
 
 
-// the Newton direction at the evaluated iterate: solve the Schur system by PCR (by GMRES when
-// sliding friction makes it non-symmetric) and
-// back-substitute du; dlambda is rotated back from slip frames to contact frames (J too). The
-// iterate becomes the base of the step: its u, rows and multipliers are kept for osti_trial and
-// for matching multipliers onto the rows of the next iterate. Returns the PCR iterations.
+// GMRES on every row
+OST_HD int osti_gmres(ostWorld* w, ostNum* x, const ostNum* b, int maxit, ostNum rtol) {
+  ostRowSet set = osti_wholeSet(w);
+  return osti_gmresSet(w, &set, x, b, maxit, rtol);
+}
+
+
+// the set of island I (w->isl_* lists of the evaluated iterate, ost_island.h)
+OST_HD ostRowSet osti_islandSet(const ostWorld* w, int I) {
+  ostRowSet set = {w->isl_row + w->isl_row_adr[I], w->isl_row_adr[I + 1] - w->isl_row_adr[I],
+                   w->isl_tree + w->isl_tree_adr[I], w->isl_tree_adr[I + 1] - w->isl_tree_adr[I]};
+  return set;
+}
+
+
+// the Newton direction at the evaluated iterate: each island's Schur system by PCR (by GMRES
+// when sliding friction makes it non-symmetric), islands marked done (isl_done) get none; then
+// du by back-substitution, zero on done islands; dlambda is rotated back from slip frames to
+// contact frames (J too). The iterate becomes the base of the step: its u, rows and multipliers
+// are kept for osti_trial and for matching multipliers onto the rows of the next iterate.
+// Without islands (w->nisland == 0) the whole world is one system. Returns the Krylov
+// iterations.
 OST_HD int osti_newtonDirection(ostWorld* w, const ostSolverOptions* opt) {
-  int nv = w->nv, nrow = w->nrow;
+  int nv = w->nv, nrow = w->nrow, it = 0;
   ostNum h = w->h;
   ostNum* b = w->pcr;
   ostNum* dlam = w->dlambda;
@@ -785,15 +948,34 @@ OST_HD int osti_newtonDirection(ostWorld* w, const ostSolverOptions* opt) {
   for (int i = 0; i < nrow; i++) {
     b[i] = (osti_rowDot(w, i, w->Minv_rdyn) - w->rho[i]) / h;
   }
-  int it = osti_hasSlidingCoupling(w) ? osti_gmres(w, dlam, b, opt->pcr_iter, opt->pcr_tol)
-                                      : osti_pcr(w, dlam, b, opt->pcr_iter, opt->pcr_tol);
+  if (w->nisland == 0) {
+    ostRowSet set = osti_wholeSet(w);
+    it = osti_hasSlidingCouplingSet(w, &set)
+             ? osti_gmresSet(w, &set, dlam, b, opt->pcr_iter, opt->pcr_tol)
+             : osti_pcrSet(w, &set, dlam, b, opt->pcr_iter, opt->pcr_tol);
+  } else {
+    ostNum* bl = w->xloc;                  // an island's right-hand side and solution, local
+    ostNum* xl = w->xloc + w->nrow_max;
+    for (int I = 0; I < w->nisland; I++) {
+      ostRowSet set = osti_islandSet(w, I);
+      if (w->isl_done[I]) {
+        for (int l = 0; l < set.n; l++) dlam[set.row[l]] = 0;
+        continue;
+      }
+      for (int l = 0; l < set.n; l++) bl[l] = b[set.row[l]];
+      it += osti_hasSlidingCouplingSet(w, &set)
+                ? osti_gmresSet(w, &set, xl, bl, opt->pcr_iter, opt->pcr_tol)
+                : osti_pcrSet(w, &set, xl, bl, opt->pcr_iter, opt->pcr_tol);
+      for (int l = 0; l < set.n; l++) dlam[set.row[l]] = xl[l];
+    }
+  }
 
   // du = h Mt^-1 J' dlambda - Mt^-1 r_dyn                                            (eq. 12)
   ostNum* t = w->tmp;
   osti_mulJT(w, t, dlam);
   osti_massSolve(w, t);
   for (int j = 0; j < nv; j++) {
-    w->dqvel[j] = h * t[j] - w->Minv_rdyn[j];
+    w->dqvel[j] = w->nisland && w->isl_done[w->dof_island[j]] ? 0 : h * t[j] - w->Minv_rdyn[j];
     w->qvel_base[j] = w->qvel[j];
   }
 
@@ -828,6 +1010,23 @@ OST_HD void osti_trial(ostWorld* w, ostNum alpha) {
     w->qvel[j] = w->qvel_base[j] + alpha * w->dqvel[j];
   }
   for (int i = 0; i < w->nrow_prev; i++) {
+    w->lambda_trial[i] = w->lambda_prev[i] + alpha * w->dlambda[i];
+  }
+  osti_projectRows(w->lambda_trial, w->rows_prev, w->nrow_prev);
+  for (int i = 0; i < w->nrow_prev; i++) {
+    w->lambda[i] = w->lambda_trial[i];
+  }
+}
+
+
+// the trial point of each base island I at its own step isl_num[6 I + 2] (osti_trial with one
+// alpha per island of the line search's base iterate)
+OST_HD void osti_trialIslands(ostWorld* w) {
+  for (int j = 0; j < w->nv; j++) {
+    w->qvel[j] = w->qvel_base[j] + w->isl_num[6 * w->dof_island_base[j] + 2] * w->dqvel[j];
+  }
+  for (int i = 0; i < w->nrow_prev; i++) {
+    ostNum alpha = w->isl_num[6 * w->row_island_prev[i] + 2];
     w->lambda_trial[i] = w->lambda_prev[i] + alpha * w->dlambda[i];
   }
   osti_projectRows(w->lambda_trial, w->rows_prev, w->nrow_prev);

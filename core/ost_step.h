@@ -14,6 +14,7 @@
 
 #include "ost_adjoint.h"
 #include "ost_hd.h"
+#include "ost_island.h"
 #include "ost_model.h"
 #include "ost_rows_native.h"
 #include "ost_solver.h"
@@ -140,10 +141,9 @@ OST_HD int osti_iterateGeometry(ostWorld* w, ostGeometryFn geom, void* ctx, cons
 }
 
 
-// trial iterate base + alpha * direction: its geometry, carried multipliers and merit
-OST_HD int osti_trialIterate(ostWorld* w, const ostSolverOptions* so, ostNum alpha,
-                             ostGeometryFn geom, void* ctx, ostNum* merit, ostNewtonStats* st) {
-  osti_trial(w, alpha);
+// the trial iterate already set in qvel and lambda: its geometry, carried multipliers and merit
+OST_HD int osti_evaluateTrial(ostWorld* w, const ostSolverOptions* so, ostGeometryFn geom,
+                              void* ctx, ostNum* merit, ostNewtonStats* st) {
   int status = osti_iterateGeometry(w, geom, ctx, w->qvel);
   if (status) {
     return status;
@@ -152,6 +152,77 @@ OST_HD int osti_trialIterate(ostWorld* w, const ostSolverOptions* so, ostNum alp
   *merit = sqrt(osti_evaluate(w, so));
   st->geometry_evals++;
   return 0;
+}
+
+
+// trial iterate base + alpha * direction: its geometry, carried multipliers and merit
+OST_HD int osti_trialIterate(ostWorld* w, const ostSolverOptions* so, ostNum alpha,
+                             ostGeometryFn geom, void* ctx, ostNum* merit, ostNewtonStats* st) {
+  osti_trial(w, alpha);
+  return osti_evaluateTrial(w, so, geom, ctx, merit, st);
+}
+
+
+// the line search of islands: every island of the base iterate tries its own step, halved until
+// its merit falls (Armijo, as osti_newton's) at most `linesearch` times, all islands in one
+// geometry evaluation per trial; an island whose merit never fell takes its lowest trial. Done
+// islands (no direction) keep their state. Leaves the accepted trial evaluated.
+OST_HD int osti_islandLineSearch(ostWorld* w, const ostSolverOptions* so, int linesearch,
+                                 ostGeometryFn geom, void* ctx, ostNum* merit,
+                                 ostNewtonStats* st) {
+  int nb = w->nisland, status = 0;
+  for (int j = 0; j < w->nv; j++) w->dof_island_base[j] = w->dof_island[j];
+  for (int i = 0; i < w->nrow; i++) w->row_island_prev[i] = w->row_island[i];
+  for (int I = 0; I < nb; I++) {
+    OST_ISL_BASE(w, I) = OST_ISL_MERIT(w, I);
+    OST_ISL_ALPHA(w, I) = 1;
+    OST_ISL_LOW(w, I) = HUGE_VAL;
+    OST_ISL_ALOW(w, I) = 1;
+    w->isl_acc[I] = w->isl_done[I];
+  }
+  st->pcr += osti_newtonDirection(w, so);
+  for (int ls = 0; ls <= linesearch; ls++) {
+    osti_trialIslands(w);
+    if ((status = osti_evaluateTrial(w, so, geom, ctx, merit, st))) {
+      return status;
+    }
+    osti_islandMerits(w, w->dof_island_base, nb);
+    int all = 1;
+    for (int I = 0; I < nb; I++) {
+      if (w->isl_acc[I]) {
+        continue;
+      }
+      ostNum a = OST_ISL_ALPHA(w, I), m = OST_ISL_MERIT(w, I);
+      OST_ISL_ALAST(w, I) = a;
+      if (m < (1 - 1e-4 * a) * OST_ISL_BASE(w, I)) {
+        w->isl_acc[I] = 1;
+        continue;
+      }
+      if (m < OST_ISL_LOW(w, I)) {
+        OST_ISL_LOW(w, I) = m;
+        OST_ISL_ALOW(w, I) = a;
+      }
+      all = 0;
+    }
+    if (all) {
+      return 0;
+    }
+    for (int I = 0; I < nb && ls < linesearch; I++) {
+      if (!w->isl_acc[I]) OST_ISL_ALPHA(w, I) *= 0.5;
+    }
+  }
+  int redo = 0;
+  for (int I = 0; I < nb; I++) {
+    if (!w->isl_acc[I]) {
+      OST_ISL_ALPHA(w, I) = OST_ISL_ALOW(w, I);
+      redo |= OST_ISL_ALOW(w, I) != OST_ISL_ALAST(w, I);
+    }
+  }
+  if (redo) {
+    osti_trialIslands(w);
+    status = osti_evaluateTrial(w, so, geom, ctx, merit, st);
+  }
+  return status;
 }
 
 
@@ -183,12 +254,18 @@ OST_HD int osti_newton(ostWorld* w, const ostSolverOptions* so, int linesearch, 
                        void* ctx, ostNum* merit_k, int* nrow_k, int nk, ostNewtonStats* st) {
   int nv = w->nv, status = 0, best_k = -1, k;
   ostNum best = HUGE_VAL, merit = 0;
+  st->iterates = 0;
+  st->best = -1;
   st->pcr = 0;
   st->geometry_evals = 0;
   st->nonfinite = 0;
   st->relaxed = 0;
+  st->first = HUGE_VAL;
+  st->best_merit = HUGE_VAL;
   st->initial_violation = 0;
   w->nrow_relax = 0;
+  w->nisland = 0;
+  osti_islandsStart(w);
   for (k = 0; k <= so->newton_iter; k++) {
     if (k == 0) {
       status = osti_trialIterate(w, so, 0, geom, ctx, &merit, st);
@@ -196,6 +273,8 @@ OST_HD int osti_newton(ostWorld* w, const ostSolverOptions* so, int linesearch, 
         status = osti_relaxStart(w, so, geom, ctx, &merit, st);
       }
       st->first = merit;
+    } else if (w->nisland > 0) {
+      status = osti_islandLineSearch(w, so, linesearch, geom, ctx, &merit, st);
     } else {
       ostNum base = merit, alpha = 1, lowest = HUGE_VAL, alpha_lowest = 1, alpha_last = 1;
       st->pcr += osti_newtonDirection(w, so);
@@ -227,6 +306,18 @@ OST_HD int osti_newton(ostWorld* w, const ostSolverOptions* so, int linesearch, 
       if (merit_k) merit_k[k] = merit;
       if (nrow_k) nrow_k[k] = w->nrow;
     }
+    // islands of this iterate: each keeps its own best iterate and stops at its own tol
+    osti_islands(w);
+    if (w->nisland > 0) {
+      int done = osti_islandsUpdate(w, k, so->k_min, so->tol);
+      for (int j = 0; j < nv && k >= so->k_min; j++) {
+        best_k = w->bestk_dof[j] > best_k ? w->bestk_dof[j] : best_k;
+      }
+      if (done || k == so->newton_iter) {
+        break;
+      }
+      continue;
+    }
     if (k >= so->k_min && merit < best) {
       best = merit;
       best_k = k;
@@ -239,10 +330,36 @@ OST_HD int osti_newton(ostWorld* w, const ostSolverOptions* so, int linesearch, 
   }
   st->iterates = k + 1;  // the loop always leaves through a break after evaluating iterate k
   st->best = best_k;
-  st->best_merit = best;
   if (best_k < 0) {
+    st->best_merit = best;
     return OST_NEWTON_NONFINITE;
   }
+
+  if (w->nisland > 0) {
+    // the step's residual is its worst island's; each island returns its best iterate. A done
+    // island was held at its best since (no direction), so the last iterate holds it already;
+    // when an island that is not done had its best earlier, the mixed state is evaluated again,
+    // as any iterate (rows kept from the last base, multipliers carried), and each island's
+    // best multipliers are put back on its rows
+    int mixed = 0;
+    best = 0;
+    for (int j = 0; j < nv; j++) {
+      best = w->best_dof[j] > best ? w->best_dof[j] : best;
+      mixed |= w->bestk_dof[j] != k && !w->isl_done[w->dof_island[j]];
+    }
+    st->best_merit = best;
+    if (mixed) {
+      for (int j = 0; j < nv; j++) w->qvel[j] = w->qvel_best[j];
+      if ((status = osti_iterateGeometry(w, geom, ctx, w->qvel))) {
+        return status;
+      }
+      osti_matchPrevious(w);
+      osti_matchRows(w->lambda, w->rows, w->nrow, w->lambda_best, w->rows_best, w->nrow_best,
+                     w->used);
+    }
+    return 0;
+  }
+  st->best_merit = best;
 
   // return the best iterate: re-evaluate its geometry (deterministic, same rows)
   if (best_k != k) {

@@ -253,6 +253,7 @@ static int newton(ostContext* c, mjData* d, mjtNum h, mjtNum* residual, int* rel
     st->residual_first = ns.first;
   }
   st->nrow = w->nrow;
+  st->islands = w->nisland > st->islands ? w->nisland : st->islands;
   st->ncon = 0;
   for (int i = 0; i < w->nrow; i++) {
     st->ncon += w->rows[i].type == OST_ROW_CONTACT;

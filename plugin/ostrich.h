@@ -188,11 +188,16 @@ typedef struct ostStats_ {
   int    geometry_evals;          // iterates whose geometry was evaluated (line search incl.)
   int    ncon;                    // contacts in the returned iterate (incl. look-ahead)
   int    nrow;                    // constraint rows in the returned iterate
-  double residual;                // merit residual of the returned iterate (m/s)
+  double residual;                // merit residual of the returned iterate (m/s): its worst
+                                  // island's when it has several (islands below)
   double residual_first;          // merit residual of the first iterate (m/s)
   double max_penetration;         // deepest contact penetration at q+ (m)
   double initial_violation;       // deepest violation at q- that was removed at the bounded
                                   // depenetration speed (m or rad; 0 if none, OST_DEPENETRATED)
+  int    islands;                 // independent Newton systems (constraint islands) of the
+                                  // returned iterate, most of any substep; residual is the
+                                  // worst island's (core/README.md section 1, "Islands")
+  int    pad;
 } ostStats;
 
 // Counts since d was first stepped by Ostrich (or ost_resetTotals), like mjData.warning[].number:
