@@ -412,40 +412,6 @@ OST_HD int osti_nativeGeometry(void* ctx, const ostNum* u) {
 }
 
 
-// one substep of size h from (qpos, qvel) = (q-, u-): returns OST_STEP_* bits of a failure (the
-// state is then undefined) or 0 with Newton's outcome in st. qpos_prev (nq) gets q-; the world
-// keeps q-'s u- and the result's (u+, lambda, rows).
-OST_HD int osti_substepNative(const ostModel* m, ostKin* k, ostWorld* w, ostNum* qpos,
-                              const ostNum* qvel, const ostNum* ctrl, const ostNum* qacc_warm,
-                              ostNum* qpos_prev, const ostStepSettings* set, ostNum h, int warm,
-                              ostNewtonStats* st) {
-  int nv = m->s.nv;
-  w->h = h;
-  w->lookahead = set->lookahead;
-  w->depen_speed = set->depen_speed;
-  for (int i = 0; i < m->s.nq; i++) qpos_prev[i] = qpos[i];
-  for (int j = 0; j < nv; j++) w->qvel_prev[j] = qvel[j];
-  osti_nativeStart(m, k, w, qpos, qvel, ctrl, NULL, NULL, h);
-  if (osti_factorMass(w)) {
-    return OST_STEP_CHOL_FAIL;
-  }
-
-  // u starts from u- + h qacc_warm; the multipliers from the last result if warm
-  for (int j = 0; j < nv; j++) {
-    w->tmp[j] = qvel[j] + h * qacc_warm[j];
-  }
-  osti_startStep(w, w->tmp, warm);
-  ostNativeGeometry g = {m, k, w, qpos_prev, qpos, ctrl, set->lookahead};
-  int status = osti_newton(w, &set->so, set->linesearch, osti_nativeGeometry, &g, NULL, NULL, 0,
-                           st);
-  if (status == OST_ROWS_ROW_OVERFLOW || status == OST_ROWS_CONTACT_OVERFLOW
-      || status == OST_ROWS_WIDTH_OVERFLOW) {
-    return OST_STEP_OVERFLOW;
-  }
-  return status ? OST_STEP_NAN : 0;
-}
-
-
 // qpos's quaternions times 1/|q| (mj_normalizeQuat, rounded as mju_normalize4). MuJoCo does
 // this in place whenever it evaluates positions, so ost_step sees it at the start of a step
 // (mj_step1) and leaves it at the end (the published q+); a native step does both, so that its
@@ -505,37 +471,78 @@ OST_HD void osti_recordSubstep(ostRecordSink* sink, const ostWorld* w, const ost
 }
 
 
-// one Ostrich step of size set->h on core's geometry, in place on (qpos, qvel, qacc_warm).
-// Splitting (as the plugin's advance): a step whose best merit stays above split_tol is redone
-// from its start as two half steps, up to split_depth levels; the recursion runs on a stack of
-// depths (both halves of a split have the same depth). `warm` (0/1, in and out) says whether
-// the world's last result (rows_warm) belongs to this state. scratch: 2 nq + nv numbers.
-// Returns OST_STEP_* bits: on a failure bit the state is restored to the step's start.
-// *substeps and *worst get the substeps taken and their largest best merit. sink (or NULL)
-// records every committed substep for the backward pass.
-OST_HD int osti_stepNative(const ostModel* m, ostKin* k, ostWorld* w, ostNum* qpos, ostNum* qvel,
-                           const ostNum* ctrl, ostNum* qacc_warm, int* warm, ostNum* scratch,
-                           const ostStepSettings* set, int* substeps, ostNum* worst,
-                           ostRecordSink* sink) {
-  int nq = m->s.nq, nv = m->s.nv, stack[OST_SPLIT_MAX + 2], top = 0, bits = 0;
-  ostNum* qpos_prev = scratch;       // q- of the substep (nq)
-  ostNum* qpos_start = scratch + nq; // the step's start, for a failure (nq, then nv)
-  osti_normalizeQuat(m, qpos);
-  for (int i = 0; i < nq; i++) qpos_start[i] = qpos[i];
-  for (int j = 0; j < nv; j++) qpos_start[nq + j] = qvel[j];
+//---------------------------------- The step driver -----------------------------------------------
+// One driver takes every Ostrich step, whatever the provider: the plugin's ost_step (mujoco or
+// native geometry, state in mjData) and the batches (core's geometry, state in batch arrays). The
+// caller supplies what differs by callbacks: the start of a substep (Mt and f), the geometry of an
+// iterate, what to keep of each Newton loop (statistics) and of each committed substep (records).
+
+typedef struct ostStepDriver_ {   // the caller's part of a step (osti_stepDriven)
+  void*  ctx;                     // passed to every callback
+  // Mt (unfactored) and f at (q-, u-) = the state arrays into the world, for a substep of size h;
+  // returns 0 or a nonzero status that ends the step
+  int (*start)(void* ctx, ostNum h);
+  ostGeometryFn geometry;         // rows at q = q- (+) h u; writes q into the qpos array
+  // each Newton loop's outcome (substeps kept or split), with its status: returns the status
+  // that counts (0 to go on); may be NULL
+  int (*newton)(void* ctx, const ostNewtonStats* st, int status);
+  // a committed substep of size h with its OST_STEP_NOT_CONVERGED / _DEPENETRATED bits, after
+  // the state arrays advanced: returns 0 or a nonzero status; may be NULL
+  int (*commit)(void* ctx, ostNum h, const ostNewtonStats* st, int bits);
+  // the failure bits (OST_STEP_OVERFLOW, OST_STEP_NAN) of a nonzero status of the callbacks
+  int (*failBits)(int status);
+  ostNum* merit_k;                // optional: each Newton loop's merits per iterate (nk)
+  int*    nrow_k;                 // and rows per iterate (nk)
+  int     nk;
+} ostStepDriver;
+
+
+// one Ostrich step of size set->h (core/README.md section 1) in place on (qpos, qvel,
+// qacc_warm): for each substep, q- into qpos_prev (nq) and u- into the world, the caller's start,
+// the factor of Mt, Newton from u- + h qacc_warm (multipliers from the last result when *warm
+// and set->warmstart), then either a split or the commit (qvel = u+, qacc_warm = (u+ - u-) / h,
+// the world's warm rows, *warm = 1). Splitting: a substep whose best merit stays above split_tol
+// is redone from its start as two half steps, up to split_depth levels, depth first (a stack of
+// depths; both halves of a split have the same depth). Returns OST_STEP_* bits; on a failure bit
+// the state is undefined (the caller restores it) and *status holds the callbacks' or Newton's
+// nonzero status (OST_NEWTON_NONFINITE included; 0 for a factor failure). *substeps and *worst
+// get the substeps committed and their largest best merit.
+OST_HD int osti_stepDriven(ostWorld* w, int nq, ostNum* qpos, ostNum* qpos_prev, ostNum* qvel,
+                           ostNum* qacc_warm, int* warm, const ostStepSettings* set,
+                           const ostStepDriver* drv, int* substeps, ostNum* worst, int* status) {
+  int nv = w->nv, stack[OST_SPLIT_MAX + 2], top = 0, bits = 0;
   *substeps = 0;
   *worst = 0;
+  *status = 0;
   stack[top++] = 0;
-  while (top > 0 && !(bits & OST_STEP_FAILED)) {
+  while (top > 0) {
     int depth = stack[--top];
     ostNum h = set->h;
     for (int d = 0; d < depth; d++) h *= 0.5;
+    w->h = h;
+    w->lookahead = set->lookahead;
+    w->depen_speed = set->depen_speed;
+    for (int i = 0; i < nq; i++) qpos_prev[i] = qpos[i];
+    for (int j = 0; j < nv; j++) w->qvel_prev[j] = qvel[j];
+    if ((*status = drv->start(drv->ctx, h))) {
+      return bits | drv->failBits(*status);
+    }
+    if (osti_factorMass(w)) {
+      return bits | OST_STEP_CHOL_FAIL;
+    }
+    // u starts from u- + h qacc_warm; the multipliers from the last result if warm
+    for (int j = 0; j < nv; j++) {
+      w->tmp[j] = qvel[j] + h * qacc_warm[j];
+    }
+    osti_startStep(w, w->tmp, *warm && set->warmstart);
     ostNewtonStats st;
-    int fail = osti_substepNative(m, k, w, qpos, qvel, ctrl, qacc_warm, qpos_prev, set, h,
-                                  *warm && set->warmstart, &st);
-    if (fail) {
-      bits |= fail;
-      break;
+    *status = osti_newton(w, &set->so, set->linesearch, drv->geometry, drv->ctx, drv->merit_k,
+                          drv->nrow_k, drv->nk, &st);
+    if (drv->newton) {
+      *status = drv->newton(drv->ctx, &st, *status);
+    }
+    if (*status) {
+      return bits | drv->failBits(*status);
     }
     if (st.best_merit > set->split_tol && depth < set->split_depth) {
       // redo from this substep's start as two halves
@@ -549,10 +556,6 @@ OST_HD int osti_stepNative(const ostModel* m, ostKin* k, ostWorld* w, ostNum* qp
     int sub = (st.best_merit > set->so.tol ? OST_STEP_NOT_CONVERGED : 0)
               | (st.relaxed ? OST_STEP_DEPENETRATED : 0);
     bits |= sub;
-    if (sink) {
-      osti_recordSubstep(sink, w, qpos_prev, ctrl, h);
-      sink->bits |= sub;
-    }
     for (int j = 0; j < nv; j++) {
       qacc_warm[j] = (w->qvel[j] - w->qvel_prev[j]) / h;
       qvel[j] = w->qvel[j];
@@ -563,17 +566,80 @@ OST_HD int osti_stepNative(const ostModel* m, ostKin* k, ostWorld* w, ostNum* qp
     if (st.best_merit > *worst) {
       *worst = st.best_merit;
     }
+    if (drv->commit && (*status = drv->commit(drv->ctx, h, &st, sub))) {
+      return bits | drv->failBits(*status);
+    }
   }
+  return bits;
+}
+
+
+typedef struct ostNativeStep_ {   // the context of a native step's callbacks
+  ostNativeGeometry g;            // its geometry
+  const ostNum*     qvel;         // u- of the substep (nv)
+  ostRecordSink*    sink;         // records of committed substeps (or NULL)
+} ostNativeStep;
+
+
+// Mt and f at (q-, u-) from core's dynamics
+OST_HD int osti_nativeStepStart(void* ctx, ostNum h) {
+  ostNativeStep* n = (ostNativeStep*)ctx;
+  osti_nativeStart(n->g.m, n->g.k, n->g.w, n->g.qpos, n->qvel, n->g.ctrl, NULL, NULL, h);
+  return 0;
+}
+
+
+// a committed substep into the record sink
+OST_HD int osti_nativeStepCommit(void* ctx, ostNum h, const ostNewtonStats* st, int bits) {
+  ostNativeStep* n = (ostNativeStep*)ctx;
+  (void)st;
+  if (n->sink) {
+    osti_recordSubstep(n->sink, n->g.w, n->g.qpos_prev, n->g.ctrl, h);
+    n->sink->bits |= bits;
+  }
+  return 0;
+}
+
+
+// core's geometry statuses as failure bits
+OST_HD int osti_nativeFailBits(int status) {
+  return status == OST_ROWS_ROW_OVERFLOW || status == OST_ROWS_CONTACT_OVERFLOW
+         || status == OST_ROWS_WIDTH_OVERFLOW ? OST_STEP_OVERFLOW : OST_STEP_NAN;
+}
+
+
+// one Ostrich step of size set->h on core's geometry (osti_stepDriven), in place on (qpos,
+// qvel, qacc_warm), with MuJoCo's quaternion normalization before and after (as ost_step's
+// mj_step1 and publication), so that its bits equal ost_step's with the native provider. `warm`
+// (0/1, in and out) says whether the world's last result (rows_warm) belongs to this state.
+// scratch: 2 nq + nv numbers. Returns OST_STEP_* bits: on a failure bit the state is restored to
+// the step's start. *substeps and *worst get the substeps taken and their largest best merit.
+// sink (or NULL) records every committed substep for the backward pass.
+OST_HD int osti_stepNative(const ostModel* m, ostKin* k, ostWorld* w, ostNum* qpos, ostNum* qvel,
+                           const ostNum* ctrl, ostNum* qacc_warm, int* warm, ostNum* scratch,
+                           const ostStepSettings* set, int* substeps, ostNum* worst,
+                           ostRecordSink* sink) {
+  int nq = m->s.nq, nv = m->s.nv, status;
+  ostNum* qpos_prev = scratch;       // q- of the substep (nq)
+  ostNum* qpos_start = scratch + nq; // the step's start, for a failure (nq, then nv)
+  osti_normalizeQuat(m, qpos);
+  for (int i = 0; i < nq; i++) qpos_start[i] = qpos[i];
+  for (int j = 0; j < nv; j++) qpos_start[nq + j] = qvel[j];
+  ostNativeStep n = {{m, k, w, qpos_prev, qpos, ctrl, set->lookahead}, qvel, sink};
+  ostStepDriver drv = {&n, osti_nativeStepStart, osti_nativeGeometry, NULL, osti_nativeStepCommit,
+                       osti_nativeFailBits, NULL, NULL, 0};
+  int bits = osti_stepDriven(w, nq, qpos, qpos_prev, qvel, qacc_warm, warm, set, &drv, substeps,
+                             worst, &status);
   if (bits & OST_STEP_FAILED) {
     for (int i = 0; i < nq; i++) qpos[i] = qpos_start[i];
     for (int j = 0; j < nv; j++) qvel[j] = qpos_start[nq + j];
     *warm = 0;
     return bits;
   }
-
   osti_normalizeQuat(m, qpos);
   return bits;
 }
+
 
 #ifdef __cplusplus
 }

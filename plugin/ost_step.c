@@ -197,60 +197,51 @@ static int continuesLastStep(ostContext* c, const mjData* d) {
 }
 
 
-// osti_newton's geometry callback: q = q- (+) h u into d->qpos and the provider's rows at q
-typedef struct geometryContext_ {
+// the context of a step's callbacks (osti_stepDriven)
+typedef struct stepContext_ {
   ostContext* c;
   mjData*     d;
-} geometryContext;
+  int         fresh;              // 1 until the first substep started: ost_step1 ran its stages
+  mjtNum      merit_k[mjNSOLVER]; // the last Newton loop's merits per iterate
+  int         nrow_k[mjNSOLVER];  // and rows
+} stepContext;
 
+
+// osti_newton's geometry callback: q = q- (+) h u into d->qpos and the provider's rows at q
 static int geometryCallback(void* ctx, const ostNum* u) {
-  geometryContext* g = (geometryContext*)ctx;
-  return evalGeometry(g->c, g->d, u, g->c->world.h);
+  stepContext* s = (stepContext*)ctx;
+  return evalGeometry(s->c, s->d, u, s->c->world.h);
 }
 
 
-// the non-smooth Newton loop (core/ost_step.h, paper section III-C) on the context's provider;
-// leaves the best iterate's geometry in d and its (u, lambda) in the world. *residual gets the
-// best merit, *relaxed 1 if the step kept part of a violation present at q- (OST_DEPENETRATED).
-static int newton(ostContext* c, mjData* d, mjtNum h, mjtNum* residual, int* relaxed) {
+// a Newton loop's statistics into the context's and into d->solver (the last loop's); a
+// non-finite loop becomes OST_ERR_NUMERIC with its message
+static int newtonCallback(void* ctx, const ostNewtonStats* ns, int status) {
+  stepContext* s = (stepContext*)ctx;
+  ostContext* c = s->c;
   ostWorld* w = &c->world;
-  const ostOptions* o = &c->opt;
-  ostSolverOptions so = ost_solverOptions(o);
-  int nv = w->nv, nrow_k[mjNSOLVER];
-  mjtNum merit_k[mjNSOLVER];
-
-  // u starts from u- + h qacc_warmstart (restored by mjd_stepFD); the multipliers start from
-  // the last step's if this step continues from its result (bitwise), else from zero, so that
-  // a step repeated from a restored or perturbed state (finite differences) is reproducible
-  for (int j = 0; j < nv; j++) {
-    w->tmp[j] = w->qvel_prev[j] + h * d->qacc_warmstart[j];
-  }
-  osti_startStep(w, w->tmp, o->warmstart && continuesLastStep(c, d));
-  geometryContext g = {c, d};
-  ostNewtonStats ns;
-  int status = osti_newton(w, &so, o->linesearch, geometryCallback, &g, merit_k, nrow_k,
-                           mjNSOLVER, &ns);
-  c->stats.geometry_evals += ns.geometry_evals;
-  if (ns.nonfinite) {
-    c->stats.status |= OST_NAN;
+  mjData* d = s->d;
+  ostStats* st = &c->stats;
+  st->geometry_evals += ns->geometry_evals;
+  if (ns->nonfinite) {
+    st->status |= OST_NAN;
   }
   if (status == OST_NEWTON_NONFINITE) {
-    return ost_fail(c, OST_ERR_NUMERIC, "non-finite Newton iterate at k=%d", ns.iterates - 1);
+    return ost_fail(c, OST_ERR_NUMERIC, "non-finite Newton iterate at k=%d", ns->iterates - 1);
   }
   if (status) {
     return status;
   }
-  int nk = ns.iterates < mjNSOLVER ? ns.iterates : mjNSOLVER;
-  for (int k = 0; k < nk && k < ns.iterates - ns.nonfinite; k++) {
-    d->solver[k].gradient = merit_k[k];
-    d->solver[k].nactive = nrow_k[k];
+  int nk = ns->iterates < mjNSOLVER ? ns->iterates : mjNSOLVER;
+  for (int k = 0; k < nk && k < ns->iterates - ns->nonfinite; k++) {
+    d->solver[k].gradient = s->merit_k[k];
+    d->solver[k].nactive = s->nrow_k[k];
   }
-  ostStats* st = &c->stats;
-  st->newton_iter += ns.iterates;
-  st->best_iter = ns.best;
-  st->pcr_iter += ns.pcr;
+  st->newton_iter += ns->iterates;
+  st->best_iter = ns->best;
+  st->pcr_iter += ns->pcr;
   if (st->substeps == 0) {
-    st->residual_first = ns.first;
+    st->residual_first = ns->first;
   }
   st->nrow = w->nrow;
   st->islands = w->nisland > st->islands ? w->nisland : st->islands;
@@ -258,13 +249,11 @@ static int newton(ostContext* c, mjData* d, mjtNum h, mjtNum* residual, int* rel
   for (int i = 0; i < w->nrow; i++) {
     st->ncon += w->rows[i].type == OST_ROW_CONTACT;
   }
-  *residual = ns.best_merit;
-  *relaxed = ns.relaxed;
-  if (ns.relaxed) {
+  if (ns->relaxed) {
     st->status |= OST_DEPENETRATED;
-    st->initial_violation = mju_max(st->initial_violation, ns.initial_violation);
+    st->initial_violation = mju_max(st->initial_violation, ns->initial_violation);
   }
-  d->solver_iter = ns.iterates < mjNSOLVER ? ns.iterates : mjNSOLVER;
+  d->solver_iter = nk;
   return OST_OK;
 }
 
@@ -462,65 +451,73 @@ static void mujocoStart(ostContext* c, const mjModel* m, mjData* d, mjtNum h, in
 }
 
 
-// one backward-Euler step of size h from d's state. Stages at q- are recomputed unless fresh
-// (ost_step1 just ran them). If Newton's best residual stays above opt.split_tol the step is
-// redone as two half steps, recursively up to opt.split_depth levels: hard moments (a wheel
-// meeting an edge at h = 0.1 s) get a finer step, easy ones keep h.
-static int advance(ostContext* c, const mjModel* m, mjData* d, mjtNum h, int depth, int fresh) {
-  ostWorld* w = &c->world;
-  int status, nv = m->nv;
-  w->h = h;
-  memcpy(c->qpos_prev, d->qpos, m->nq * sizeof(mjtNum));
-  memcpy(w->qvel_prev, d->qvel, nv * sizeof(mjtNum));
-  if (c->opt.geometry == OST_GEOMETRY_NATIVE) {
-    // Mt and f at (q-, u-) from core's own dynamics
-    ost_startNative(c, d, h);
+// the start of a substep at d's (q-, u-): Mt and f into the world. Stages at q- are recomputed
+// unless fresh (ost_step1 just ran them for the step's first substep).
+static int startCallback(void* ctx, ostNum h) {
+  stepContext* s = (stepContext*)ctx;
+  if (s->c->opt.geometry == OST_GEOMETRY_NATIVE) {
+    ost_startNative(s->c, s->d, h);  // core's own dynamics
   } else {
-    mujocoStart(c, m, d, h, fresh);
+    mujocoStart(s->c, s->c->m, s->d, h, s->fresh);
   }
-  if (osti_factorMass(w)) {
-    c->stats.status |= OST_CHOL_FAIL;
-    return ost_fail(c, OST_ERR_NUMERIC, "M + hD is not positive definite");
-  }
+  s->fresh = 0;
+  return OST_OK;
+}
 
-  // non-smooth Newton at q = q- (+) h u
-  mjtNum residual = HUGE_VAL;
-  int relaxed = 0;
-  if ((status = newton(c, d, h, &residual, &relaxed))) {
-    return status;
-  }
-  if (residual > c->opt.split_tol && depth < c->opt.split_depth) {
-    memcpy(d->qpos, c->qpos_prev, m->nq * sizeof(mjtNum));
-    memcpy(d->qvel, w->qvel_prev, nv * sizeof(mjtNum));
-    if ((status = advance(c, m, d, h / 2, depth + 1, 0))) {
-      return status;
-    }
-    return advance(c, m, d, h / 2, depth + 1, 0);
-  }
 
-  // commit (q+, u+): d->qpos already holds q- (+) h u+ from the best iterate's geometry
-  mjtNum* qacc = d->qacc;
-  for (int j = 0; j < nv; j++) {
-    qacc[j] = (w->qvel[j] - w->qvel_prev[j]) / h;
-    d->qvel[j] = w->qvel[j];
-  }
-  memcpy(d->qacc_warmstart, qacc, nv * sizeof(mjtNum));
+// a committed substep (d->qpos, d->qvel and d->qacc_warmstart already hold it): qacc, time, its
+// record for the gradient, the end state a next step continues from, statistics
+static int commitCallback(void* ctx, ostNum h, const ostNewtonStats* ns, int bits) {
+  stepContext* s = (stepContext*)ctx;
+  ostContext* c = s->c;
+  mjData* d = s->d;
+  const mjModel* m = c->m;
+  memcpy(d->qacc, d->qacc_warmstart, m->nv * sizeof(mjtNum));
   d->time += h;
-  osti_saveWarm(w);
-  int bits = (residual > c->opt.tol ? OST_NOT_CONVERGED : 0) | (relaxed ? OST_DEPENETRATED : 0);
-  if ((status = ost_recordSubstep(c, m, d, h, residual, bits))) {
+  int status = ost_recordSubstep(c, m, d, h, ns->best_merit,
+                                 (bits & OST_STEP_NOT_CONVERGED ? OST_NOT_CONVERGED : 0)
+                                 | (bits & OST_STEP_DEPENETRATED ? OST_DEPENETRATED : 0));
+  if (status) {
     return status;
   }
   saveState(m, d, c->state_end);
   c->warm_valid = 1;
   c->stats.substeps++;
-  if (residual > c->stats.residual) {
-    c->stats.residual = residual;
-  }
-  if (residual > c->opt.tol) {
+  c->stats.residual = mju_max(c->stats.residual, ns->best_merit);
+  if (bits & OST_STEP_NOT_CONVERGED) {
     c->stats.status |= OST_NOT_CONVERGED;
   }
   return OST_OK;
+}
+
+
+static int failBits(int status) {
+  return status == OST_ERR_OVERFLOW ? OST_STEP_OVERFLOW : OST_STEP_NAN;
+}
+
+
+// one step of size h from d's state by core's step driver (core/ost_step.h osti_stepDriven:
+// substeps, splitting, commit) with the context's provider. Returns OST_OK or the failure's
+// status, its message recorded; the caller restores the state on a failure.
+static int advance(ostContext* c, mjData* d, mjtNum h) {
+  const ostOptions* o = &c->opt;
+  ostStepSettings set = {ost_solverOptions(o), o->linesearch, o->split_depth, o->warmstart, 0, h,
+                         o->split_tol, o->margin, o->depenetration_speed};
+  stepContext s = {c, d, 1, {0}, {0}};
+  ostStepDriver drv = {&s, startCallback, geometryCallback, newtonCallback, commitCallback,
+                       failBits, s.merit_k, s.nrow_k, mjNSOLVER};
+  // the multipliers start from the last step's if this step continues from its result
+  // (bitwise), else from zero, so that a step repeated from a restored or perturbed state
+  // (finite differences) is reproducible; u starts from u- + h qacc_warmstart
+  int warm = continuesLastStep(c, d), substeps, status;
+  mjtNum worst;
+  int bits = osti_stepDriven(&c->world, c->m->nq, d->qpos, c->qpos_prev, d->qvel,
+                             d->qacc_warmstart, &warm, &set, &drv, &substeps, &worst, &status);
+  if (bits & OST_STEP_CHOL_FAIL) {
+    c->stats.status |= OST_CHOL_FAIL;
+    return ost_fail(c, OST_ERR_NUMERIC, "M + hD is not positive definite");
+  }
+  return (bits & OST_STEP_FAILED) ? status : OST_OK;
 }
 
 
@@ -551,7 +548,7 @@ static int step2(ostContext* c, const mjModel* m, mjData* d) {
   c->rec_n = 0;
   c->rec_bytes = 0;
   saveState(m, d, c->state_start);
-  if ((status = advance(c, m, d, h, 0, 1))) {
+  if ((status = advance(c, d, h))) {
     if (status == OST_ERR_OVERFLOW) {
       c->stats.status |= OST_OVERFLOW;
     }
