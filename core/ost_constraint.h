@@ -143,6 +143,96 @@ OST_HD void osti_projectRows(ostNum* lambda, const ostRow* rows, int nrow) {
 }
 
 
+// order of rows a, b of one list by (type, obj[0], obj[1]), then index: < 0, 0 or > 0
+OST_HD int osti_rowOrder(const ostRow* rows, int a, int b) {
+  const ostRow *p = rows + a, *q = rows + b;
+  if (p->type != q->type) return p->type < q->type ? -1 : 1;
+  if (p->obj[0] != q->obj[0]) return p->obj[0] < q->obj[0] ? -1 : 1;
+  if (p->obj[1] != q->obj[1]) return p->obj[1] < q->obj[1] ? -1 : 1;
+  return a < b ? -1 : (a > b ? 1 : 0);
+}
+
+
+// osti_matchRows with the same result in O(n log n): the previous rows are sorted by (type,
+// objects, index) (bottom-up merge sort into order, 2 nprev ints of scratch), and each new row
+// searches only the previous rows of its own type and objects, in index order, for the nearest
+// unused one (so ties go to the lowest index, as in osti_matchRows)
+OST_HD void osti_matchRowsSorted(ostNum* lambda, const ostRow* rows, int nrow,
+                                 const ostNum* prev_lambda, const ostRow* prev, int nprev,
+                                 unsigned char* used, int* order) {
+  int* tmp = order + nprev;
+  for (int j = 0; j < nprev; j++) {
+    used[j] = 0;
+    order[j] = j;
+  }
+  for (int i = 0; i < nrow; i++) {
+    lambda[i] = 0;
+  }
+  for (int width = 1; width < nprev; width *= 2) {
+    for (int lo = 0; lo < nprev; lo += 2 * width) {
+      int mid = lo + width < nprev ? lo + width : nprev;
+      int hi = lo + 2 * width < nprev ? lo + 2 * width : nprev;
+      int a = lo, b = mid, k = lo;
+      while (a < mid && b < hi) {
+        tmp[k++] = osti_rowOrder(prev, order[a], order[b]) <= 0 ? order[a++] : order[b++];
+      }
+      while (a < mid) tmp[k++] = order[a++];
+      while (b < hi) tmp[k++] = order[b++];
+    }
+    for (int j = 0; j < nprev; j++) {
+      order[j] = tmp[j];
+    }
+  }
+  for (int i = 0; i < nrow; i++) {
+    const ostRow* r = rows + i;
+    if (r->type == OST_ROW_FRICTION) {
+      continue;  // handled with its normal row
+    }
+    // first previous row of r's type and objects (binary search on the sorted order)
+    int lo = 0, hi = nprev;
+    while (lo < hi) {
+      int mid = (lo + hi) / 2;
+      const ostRow* p = prev + order[mid];
+      int less = p->type != r->type ? p->type < r->type
+                 : p->obj[0] != r->obj[0] ? p->obj[0] < r->obj[0] : p->obj[1] < r->obj[1];
+      if (less) {
+        lo = mid + 1;
+      } else {
+        hi = mid;
+      }
+    }
+    int best = -1;
+    ostNum best_d2 = HUGE_VAL;
+    for (int k = lo; k < nprev; k++) {
+      int j = order[k];
+      const ostRow* p = prev + j;
+      if (p->type != r->type || p->obj[0] != r->obj[0] || p->obj[1] != r->obj[1]) {
+        break;
+      }
+      if (used[j]) {
+        continue;
+      }
+      ostNum dx = p->key[0] - r->key[0], dy = p->key[1] - r->key[1], dz = p->key[2] - r->key[2];
+      ostNum d2 = dx * dx + dy * dy + dz * dz;
+      if (d2 < best_d2) {
+        best_d2 = d2;
+        best = j;
+      }
+    }
+    if (best < 0) {
+      continue;
+    }
+    used[best] = 1;
+    lambda[i] = prev_lambda[best];
+    if (r->type == OST_ROW_CONTACT && i + 2 < nrow && rows[i + 1].type == OST_ROW_FRICTION
+        && best + 2 < nprev && prev[best + 1].type == OST_ROW_FRICTION) {
+      lambda[i + 1] = prev_lambda[best + 1];
+      lambda[i + 2] = prev_lambda[best + 2];
+    }
+  }
+}
+
+
 // copy multipliers from the previous iterate's rows to the new rows:
 // same type and objects; contacts of one geom pair are paired with the nearest unused previous
 // contact. Unmatched rows start at zero. used is scratch (nprev).

@@ -103,6 +103,7 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNu
   X(unsigned char, colmark, OST_SOLVER_ROWS(nv), 1) /* pattern scratch, all zero between calls */ \
   X(ostNum, merit_row, OST_SOLVER_ROWS(nrow_max), 2) /* row i's squared merit terms (friction, own) */ \
   X(ostNum, xloc, OST_SOLVER_ROWS(nrow_max), 2) /* an island's Schur right-hand side, solution */ \
+  X(int, match_order, OST_SOLVER_ROWS(nrow_max), 2) /* osti_matchRowsSorted's scratch       */   \
   /* islands (ost_island.h): at most one per tree, so nv bounds their number */                \
   X(int, tree_end, OST_SOLVER_ROWS(nv), 1)   /* a tree's root dof: one past its last dof   */   \
   X(int, uf, OST_SOLVER_ROWS(nv), 1)         /* union-find scratch over dofs               */   \
@@ -277,6 +278,47 @@ OST_HD int osti_rowStore(ostWorld* w, int n, int g) {
     int t = ind[a];
     ind[a] = ind[b];
     ind[b] = t;
+  }
+  for (int r = 0; r < g; r++) {
+    int* ri = w->Jind + (size_t)(n + r) * ncol;
+    ostNum* rv = w->J + (size_t)(n + r) * ncol;
+    const ostNum* src = w->Jrow + (size_t)r * nv;
+    w->Jnnz[n + r] = cnt;
+    for (int k = 0; k < cnt; k++) {
+      ri[k] = ind[k];
+      rv[k] = src[ind[k]];
+    }
+  }
+  return 0;
+}
+
+
+// store the g dense rows of osti_rowScratch as rows n .. n+g-1 whose pattern is known: the
+// union of the dof chains ending at last1 and last2 (-1: none), which is parent-closed by
+// construction, so no column is scanned (a contact's rows; O(depth), not O(nv)). Needs the tree
+// (w->dof_parent). Returns 0, or 1 if the union is wider than ncol.
+OST_HD int osti_rowStoreChains(ostWorld* w, int n, int g, int last1, int last2) {
+  if (!w->Jnnz) {
+    return 0;
+  }
+  int nv = w->nv, ncol = w->ncol, cnt = 0;
+  int* ind = w->Jind + (size_t)n * ncol;
+  const int* parent = w->dof_parent;
+  // both chains descend towards the root: merge them into one descending list of distinct dofs
+  int a = last1, b = last2;
+  while (a >= 0 || b >= 0) {
+    int c = a > b ? a : b;
+    if (cnt == ncol) {
+      return 1;
+    }
+    ind[cnt++] = c;
+    if (a == c) a = parent[a];
+    if (b == c) b = parent[b];
+  }
+  for (int x = 0, y = cnt - 1; x < y; x++, y--) {  // ascending
+    int t = ind[x];
+    ind[x] = ind[y];
+    ind[y] = t;
   }
   for (int r = 0; r < g; r++) {
     int* ri = w->Jind + (size_t)(n + r) * ncol;
@@ -1079,8 +1121,8 @@ OST_HD void osti_startStep(ostWorld* w, const ostNum* u, int warm) {
 // at least the look-ahead distance (it was not reported), so it never carries force in a
 // solution; it only bounds the next Newton step.
 OST_HD void osti_matchPrevious(ostWorld* w) {
-  osti_matchRows(w->lambda, w->rows, w->nrow, w->lambda_trial, w->rows_prev, w->nrow_prev,
-                 w->used);
+  osti_matchRowsSorted(w->lambda, w->rows, w->nrow, w->lambda_trial, w->rows_prev, w->nrow_prev,
+                       w->used, w->match_order);
   for (int j = 0; j < w->nrow_prev && w->prev_jac; j++) {
     const ostRow* p = w->rows_prev + j;
     if (w->used[j] || (p->type != OST_ROW_CONTACT && p->type != OST_ROW_LIMIT)) {

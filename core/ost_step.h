@@ -354,8 +354,8 @@ OST_HD int osti_newton(ostWorld* w, const ostSolverOptions* so, int linesearch, 
         return status;
       }
       osti_matchPrevious(w);
-      osti_matchRows(w->lambda, w->rows, w->nrow, w->lambda_best, w->rows_best, w->nrow_best,
-                     w->used);
+      osti_matchRowsSorted(w->lambda, w->rows, w->nrow, w->lambda_best, w->rows_best,
+                           w->nrow_best, w->used, w->match_order);
     }
     return 0;
   }

@@ -136,7 +136,7 @@ static int contactRows(ostContext* c, const mjData* d, int g1, int g2, const mjt
   ostNum* J = osti_rowScratch(w, *n);  // zero off the chains (ost_rowsMujoco)
   int last1, last2;
   int moves = contactJacobian(c, d, g1, g2, pos, frame, fric, J, &last1, &last2);
-  int wide = moves && osti_rowStore(w, *n, fric ? 3 : 1);
+  int wide = moves && osti_rowStoreChains(w, *n, fric ? 3 : 1, last1, last2);
   chainZero(c->mo, J, 3, last1);  // keep the scratch zero for the next contact
   chainZero(c->mo, J, 3, last2);
   if (!moves) {

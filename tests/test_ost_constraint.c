@@ -4,6 +4,8 @@
 
 #include <math.h>
 
+#include <stdlib.h>
+
 #include "fixture.h"
 
 START_TEST(test_fischerBurmeister) {
@@ -84,12 +86,56 @@ START_TEST(test_matching) {
 }
 END_TEST
 
+// the sorted matching gives osti_matchRows' result, bit for bit, on random row lists: several
+// contacts per geom pair (friction or not), limits and equalities, repeated keys (ties), rows
+// that appear and vanish
+START_TEST(test_matchingSorted) {
+  enum { N = 60 };
+  unsigned seed = 3;
+  ostRow prev[N], rows[N];
+  double plam[N], lam1[N], lam2[N];
+  unsigned char used[N];
+  int order[2 * N];
+  for (int trial = 0; trial < 300; trial++) {
+    int lists[2] = {0, 0};
+    ostRow* dst[2] = {prev, rows};
+    for (int l = 0; l < 2; l++) {
+      while (lists[l] < N - 3) {
+        int kind = rand_r(&seed) % 4, n = lists[l];
+        ostRow r = contactRow(rand_r(&seed) % 3, 3 + rand_r(&seed) % 2, (rand_r(&seed) % 5) * 0.5, 1);
+        if (kind == 0) {
+          r.type = OST_ROW_LIMIT;
+        } else if (kind == 1) {
+          r.type = OST_ROW_EQUALITY;
+        }
+        dst[l][n] = r;
+        int fric = r.type == OST_ROW_CONTACT && rand_r(&seed) % 2;
+        for (int f = 1; f <= 2 * fric; f++) {
+          dst[l][n + f] = r;
+          dst[l][n + f].type = OST_ROW_FRICTION;
+          dst[l][n + f].normal = n;
+        }
+        lists[l] += 1 + 2 * fric;
+        if (rand_r(&seed) % 8 == 0) break;
+      }
+    }
+    for (int j = 0; j < lists[0]; j++) plam[j] = j + 1;
+    osti_matchRows(lam1, rows, lists[1], plam, prev, lists[0], used);
+    osti_matchRowsSorted(lam2, rows, lists[1], plam, prev, lists[0], used, order);
+    for (int i = 0; i < lists[1]; i++) {
+      ck_assert_msg(lam1[i] == lam2[i], "trial %d row %d: %g vs %g", trial, i, lam1[i], lam2[i]);
+    }
+  }
+}
+END_TEST
+
 int main(void) {
   Suite* s = suite_create("ost_constraint");
   TCase* tc = tcase_create("constraint");
   tcase_add_test(tc, test_fischerBurmeister);
   tcase_add_test(tc, test_projection);
   tcase_add_test(tc, test_matching);
+  tcase_add_test(tc, test_matchingSorted);
   suite_add_tcase(s, tc);
   return ost_fixtureRun(s);
 }
