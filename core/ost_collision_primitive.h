@@ -266,6 +266,53 @@ OST_HD int osti_collidePlaneBox(ostContact* con, const ostGeom* g1, const ostGeo
 }
 
 
+// plane : convex mesh, for the mujoco provider; every vertex of the mesh's convex hull below its
+// center's height
+// (n.(R v) <= 0) within the margin is a contact, so the contact set moves continuously with the
+// pose (MuJoCo 2.2.2's plane-mesh, mirrored by osti_collidePlaneMesh, gives the deepest vertex and
+// at most 2 neighbours: a mesh resting on a face switches between them from one Newton iterate to
+// the next). vert: the mesh's
+// vertices in the geom frame (float, as mjModel.mesh_vert); ids: the hull's vertex indices (NULL:
+// all nid vertices). More than OST_MAXCONPAIR candidates keep the deepest.
+OST_HD int osti_collidePlaneHull(ostContact* con, const ostGeom* g1, const ostGeom* g2,
+                                 const float* vert, const int* ids, int nid, ostNum margin) {
+  ostNum n[3], pos[3];
+  osti_primAxis(n, g1->mat, 2);
+  ostNum dif[3] = {g2->pos[0] - g1->pos[0], g2->pos[1] - g1->pos[1], g2->pos[2] - g1->pos[2]};
+  ostNum d0 = osti_primDot(dif, n);
+  const ostNum* R = g2->mat;
+  int cnt = 0;
+  for (int k = 0; k < nid; k++) {
+    const float* vf = vert + 3 * (ids ? ids[k] : k);
+    ostNum v[3] = {vf[0], vf[1], vf[2]};
+    ostNum c[3] = {R[0]*v[0] + R[1]*v[1] + R[2]*v[2],
+                   R[3]*v[0] + R[4]*v[1] + R[5]*v[2],
+                   R[6]*v[0] + R[7]*v[1] + R[8]*v[2]};
+    ostNum h = osti_primDot(n, c), dist = d0 + h;
+    if (dist > margin || h > 0) {
+      continue;
+    }
+    int slot = cnt;
+    if (cnt == OST_MAXCONPAIR) {  // full: replace the shallowest if this one is deeper
+      slot = 0;
+      for (int j = 1; j < cnt; j++) {
+        slot = con[j].dist > con[slot].dist ? j : slot;
+      }
+      if (!(dist < con[slot].dist)) {
+        continue;
+      }
+    } else {
+      cnt++;
+    }
+    // pos = center + c - n dist/2
+    osti_primAxpy(pos, g2->pos, 1, c);
+    osti_primAxpy(pos, pos, -dist/2, n);
+    osti_primSetContact(con + slot, dist, pos, n, 0);
+  }
+  return cnt;
+}
+
+
 //---------------------------------- sphere and capsule collisions --------------------------------
 
 // sphere : sphere

@@ -186,7 +186,8 @@ static void addPair(ostModel* om, int* n, const mjModel* m, int terrain, int g1,
 // functions: cylinder-box (ost_collision_cylbox.h), height field-cylinder (_cylsurf.h)
 static int coreTypes(int t1, int t2) {
   int lo = t1 < t2 ? t1 : t2, hi = t1 < t2 ? t2 : t1;
-  return (lo == mjGEOM_CYLINDER && hi == mjGEOM_BOX) || (lo == mjGEOM_HFIELD && hi == mjGEOM_CYLINDER);
+  return (lo == mjGEOM_CYLINDER && hi == mjGEOM_BOX) || (lo == mjGEOM_HFIELD && hi == mjGEOM_CYLINDER)
+         || (lo == mjGEOM_PLANE && hi == mjGEOM_MESH);
 }
 
 

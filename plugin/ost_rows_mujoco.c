@@ -213,6 +213,16 @@ int ost_collideCorePair(const mjModel* m, const mjData* d, const ostNum* hfield_
     return osti_collideHField(con, OST_MAXCONPAIR, &hf, &a, &b, margin, m->opt.mpr_tolerance,
                               m->opt.mpr_iterations);
   }
+  if (a.type == mjGEOM_PLANE && b.type == mjGEOM_MESH) {
+    // the hull's vertices (mesh_graph: numvert, numface, vert_edgeadr, vert_globalid, ...)
+    int id = m->geom_dataid[g2];
+    const float* vert = m->mesh_vert + 3 * m->mesh_vertadr[id];
+    if (m->mesh_graphadr[id] < 0) {
+      return osti_collidePlaneHull(con, &a, &b, vert, NULL, m->mesh_vertnum[id], margin);
+    }
+    const int* graph = m->mesh_graph + m->mesh_graphadr[id];
+    return osti_collidePlaneHull(con, &a, &b, vert, graph + 2 + graph[0], graph[0], margin);
+  }
   // bounding spheres apart, as MuJoCo's broadphase
   mjtNum dx[3] = {a.pos[0] - b.pos[0], a.pos[1] - b.pos[1], a.pos[2] - b.pos[2]};
   mjtNum reach = a.rbound + b.rbound + margin;

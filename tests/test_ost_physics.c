@@ -46,6 +46,54 @@ START_TEST(test_boxRests) {
 END_TEST
 
 
+// a convex mesh on a plane rests like the box primitive it equals: a cube mesh dropped flat and a
+// tilted cube mesh with a vertex below its center (both land on a face and stay), at h = 5 ms and
+// 50 ms, every step converged, resting at the half-size 0.1 m within the hard-contact allowance
+// (1e-4 m: the FB smoothing and the regularization leave sub-micron gaps) and no sliding. The
+// plane-mesh pair uses Ostrich's hull-vertex contacts; MuJoCo 2.2.2's three contacts, which switch
+// between vertices from one iterate to the next, left 172 of 200 such steps unconverged.
+START_TEST(test_meshRests) {
+  ost_fixtureSetup();
+  const char* cube =
+    "-.1 -.1 -.1  .1 -.1 -.1  -.1 .1 -.1  .1 .1 -.1 -.1 -.1 .1  .1 -.1 .1  -.1 .1 .1  .1 .1 .1";
+  const char* euler[2] = {"0 0 0", "25 15 0"};
+  double hs[2] = {0.005, 0.05};
+  for (int c = 0; c < 2; c++) {
+    for (int ih = 0; ih < 2; ih++) {
+      char xml[2048];
+      snprintf(xml, sizeof(xml),
+               "<mujoco><asset><mesh name='cube' vertex='%s'/></asset><worldbody>"
+               "<geom type='plane' size='5 5 0.1'/><body pos='0 0 0.3' euler='%s'><freejoint/>"
+               "<geom type='mesh' mesh='cube' mass='2'/></body></worldbody></mujoco>",
+               cube, euler[c]);
+      mjModel* m = ost_fixtureLoadString(xml);
+      mjData* d = mj_makeData(m);
+      ost_fixtureSetTimestep(m, d, hs[ih]);
+      int n = (int)(2.0 / hs[ih]);
+      double x0 = 0, y0 = 0;
+      for (int k = 0; k < n; k++) {
+        int status = ost_step(m, d);
+        ck_assert_msg(status == OST_OK, "cube %d h %g step %d: status %d, residual %g", c, hs[ih],
+                      k, status, ost_stats(d)->residual);
+        if (k == n / 2) {
+          x0 = d->qpos[0];
+          y0 = d->qpos[1];
+        }
+      }
+      double drift = hypot(d->qpos[0] - x0, d->qpos[1] - y0);
+      printf("mesh cube %d at h %g: z %.6f, drift over the last second %.2g m, |v| %.2g\n", c,
+             hs[ih], d->qpos[2], drift, fabs(d->qvel[2]));
+      ck_assert_double_lt(fabs(d->qpos[2] - 0.1), 1e-4);
+      ck_assert_double_lt(drift, 1e-4);
+      ck_assert_double_lt(fabs(d->qvel[2]), 1e-4);
+      ost_deleteData(d);
+      mj_deleteModel(m);
+    }
+  }
+}
+END_TEST
+
+
 // mu = 0.5 at 20 deg (tan < mu): the box sticks, displacement < 1e-4 m over 2 s, every h
 START_TEST(test_inclineSticking) {
   ost_fixtureSetup();
@@ -265,6 +313,7 @@ int main(void) {
   TCase* tc = tcase_create("physics");
   tcase_set_timeout(tc, 600);
   tcase_add_test(tc, test_boxRests);
+  tcase_add_test(tc, test_meshRests);
   tcase_add_test(tc, test_inclineSticking);
   tcase_add_test(tc, test_inclineSliding);
   tcase_add_test(tc, test_frictionCreep);
