@@ -2,7 +2,7 @@
 // subcommand per file: sweep and replay/identify (compare_sweep.c, compare_replay.c, sharing the
 // engine runner and error metric of compare_run.c), hard cases (compare_hard.c), a user's own
 // models (compare_models.c, its outputs in compare_models_out.c). compare_cli.c
-// dispatches. Same conventions as the other subcommands (plugin/ost_cli_util.h): one JSON line
+// dispatches. Same conventions as the other subcommands (plugin/cli/ost_cli_util.h): one JSON line
 // on stdout, diagnostics on stderr starting "ostrich:", exit 0 / 1 (run failed) / 2 (usage).
 #ifndef OSTRICH_COMPARE_COMPARE_H_
 #define OSTRICH_COMPARE_COMPARE_H_

@@ -1,6 +1,7 @@
 // compare_run.c: the shared part of the A/B subcommands (see compare_run.h): CSV tables and
 // command files, the pallet-traversal profile, trajectories and their error metric, the engine
-// runner, argument helpers and a process launcher. The runner mirrors sim_loop in plugin/ost_cli.c.
+// runner, argument helpers and a process launcher. The runner mirrors sim_loop in
+// plugin/cli/ost_cli.c.
 //
 // Invariant: nothing here writes to stdout or exits; a rejected input gives one "ostrich:" line
 // on stderr and a nonzero return. The runner leaves the model as it found it (opt.timestep).

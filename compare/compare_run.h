@@ -2,11 +2,11 @@
 // compare_hard.c): CSV tables and zero-order-hold command files, trajectories and the error
 // metric between two of them, the engine runner that steps one model with Ostrich (ost_step) or
 // stock MuJoCo (mj_step) on given commands, the robot's pallet-traversal command profile, and
-// argument helpers. Mirrors the run loop of `ostrich sim` (plugin/ost_cli.c).
+// argument helpers. Mirrors the run loop of `ostrich sim` (plugin/cli/ost_cli.c).
 //
-// Invariant: like plugin/ost_cli_util.h, a function that rejects its input prints one "ostrich:"
-// line on stderr and returns nonzero; nothing here writes to stdout or exits. Every table and
-// trajectory owns its arrays; its free function may be called on a zeroed or failed one.
+// Invariant: like plugin/cli/ost_cli_util.h, a function that rejects its input prints one
+// "ostrich:" line on stderr and returns nonzero; nothing here writes to stdout or exits. Every
+// table and trajectory owns its arrays; its free function may be called on a zeroed or failed one.
 #ifndef OSTRICH_COMPARE_COMPARE_RUN_H_
 #define OSTRICH_COMPARE_COMPARE_RUN_H_
 

@@ -5,8 +5,9 @@
 # replay round trip, replay of a shipped log, a small identify), a few seconds.
 ost_check_test(test_compare_metric)
 target_sources(test_compare_metric PRIVATE ${CMAKE_SOURCE_DIR}/compare/compare_run.c
-               ${CMAKE_SOURCE_DIR}/plugin/ost_cli_util.c)
-target_include_directories(test_compare_metric PRIVATE ${CMAKE_SOURCE_DIR}/compare)
+               ${CMAKE_SOURCE_DIR}/plugin/cli/ost_cli_util.c)
+target_include_directories(test_compare_metric PRIVATE ${CMAKE_SOURCE_DIR}/compare
+                           ${CMAKE_SOURCE_DIR}/plugin/cli)
 
 add_test(NAME test_compare_sweep COMMAND bash ${CMAKE_CURRENT_SOURCE_DIR}/test_compare_sweep.sh
          $<TARGET_FILE:ostrich_cli> ${OST_MODELS} ${CMAKE_SOURCE_DIR}/compare)

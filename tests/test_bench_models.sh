@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# test_bench_models.sh: end-to-end test of `ostrich bench models` (plugin/ost_cli_bench_models.c).
+# test_bench_models.sh: end-to-end test of `ostrich bench models`
+# (plugin/cli/ost_cli_bench_models.c).
 # usage: bash tests/test_bench_models.sh PATH/TO/ostrich PATH/TO/mjcf_models PATH/TO/humanoid.xml
 # Runs two small models, a model Ostrich refuses (a joint with frictionloss) and --scaling 1,2 of
 # the humanoid, and checks the CSV: its columns, one row per engine and h, positive finite ratios,

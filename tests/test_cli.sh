@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# test_cli.sh: end-to-end tests of the `ostrich` command-line tool (plugin/ost_cli*.c).
+# test_cli.sh: end-to-end tests of the `ostrich` command-line tool (plugin/cli/ost_cli*.c).
 # usage: bash tests/test_cli.sh PATH/TO/ostrich PATH/TO/mjcf_models
 # Checks usage errors (exit 2, one "ostrich:" line on stderr, nothing on stdout), then runs
 # `ostrich sim` on box_plane.xml (both engines) and robot_pallet.xml and checks the JSON line and

@@ -2,7 +2,7 @@
 """MJX baseline of `ostrich synth` (issue 6): time per gradient iteration of the control-synthesis
 task on the wheeled robot, batched over W worlds, with reverse-mode jax.grad through MJX.
 
-The task, spline and loss are those of plugin/ost_cli_synth.c (see its header comment):
+The task, spline and loss are those of plugin/cli/ost_cli_synth.c (see its header comment):
   scene    mjcf_models/robot_box.xml at its opt.timestep h = 2 ms, 3000 steps over T = 6 s
   task     start x, y ~ U(-0.2, 0.2), yaw ~ U(-0.2, 0.2); target x = 3, y ~ U(-0.3, 0.3),
            heading ~ U(-0.3, 0.3); one random task per world (numpy RNG, --seed)
@@ -29,7 +29,7 @@ import time
 
 import numpy as np
 
-# Task constants, as in plugin/ost_cli_synth.c
+# Task constants, as in plugin/cli/ost_cli_synth.c
 NKNOT, HORIZON, DT = 10, 6.0, 0.1
 TARGET_X, START_XY, START_YAW, TARGET_Y, TARGET_HEAD = 3.0, 0.2, 0.2, 0.3, 0.3
 INIT_KNOT = 1.5

@@ -5,8 +5,8 @@
 //
 // Invariant: a modelsRow holds only what its run measured (steps, wall_s, converged, status, msg)
 // and what is derived from it (ratio_step, ratio_sim); nothing printed is kept elsewhere.
-#ifndef OSTRICH_PLUGIN_OST_CLI_BENCH_MODELS_H_
-#define OSTRICH_PLUGIN_OST_CLI_BENCH_MODELS_H_
+#ifndef OSTRICH_PLUGIN_CLI_OST_CLI_BENCH_MODELS_H_
+#define OSTRICH_PLUGIN_CLI_OST_CLI_BENCH_MODELS_H_
 
 #include <mujoco/mujoco.h>
 
@@ -94,4 +94,4 @@ int bench_models_writePlot(const char* png, const char* dir, const modelsRow* ro
 }
 #endif
 
-#endif  // OSTRICH_PLUGIN_OST_CLI_BENCH_MODELS_H_
+#endif  // OSTRICH_PLUGIN_CLI_OST_CLI_BENCH_MODELS_H_

@@ -7,8 +7,8 @@
 // Invariant: every helper that rejects its input prints exactly one "ostrich: ..." line on stderr
 // and returns nonzero; none writes to stdout (each subcommand prints its one JSON line itself),
 // and none exits.
-#ifndef OSTRICH_PLUGIN_OST_CLI_UTIL_H_
-#define OSTRICH_PLUGIN_OST_CLI_UTIL_H_
+#ifndef OSTRICH_PLUGIN_CLI_OST_CLI_UTIL_H_
+#define OSTRICH_PLUGIN_CLI_OST_CLI_UTIL_H_
 
 #include <stddef.h>
 #include <stdio.h>
@@ -196,4 +196,4 @@ int cli_hasNan(const mjModel* m, const mjData* d);
 }
 #endif
 
-#endif  // OSTRICH_PLUGIN_OST_CLI_UTIL_H_
+#endif  // OSTRICH_PLUGIN_CLI_OST_CLI_UTIL_H_
