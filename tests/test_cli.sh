@@ -4,9 +4,9 @@
 # Checks usage errors (exit 2, one "ostrich:" line on stderr, nothing on stdout), then runs
 # `ostrich sim` on box_plane.xml (both engines) and robot_pallet.xml and checks the JSON line and
 # the CSV; `check`; refusals that name every unsupported feature (the same from sim and check);
-# the start state (qpos0, or --key K); `synth` (self-test, the mujoco engine, then with the
-# gradient API the ostrich engine) and `gradcheck`. Every check runs; the script exits 1 if any
-# failed.
+# the start state (qpos0, or --key K); `synth` (the mujoco engine, then with the gradient API
+# the ostrich engine; the derivatives of its loss are checked by tests/test_ost_cli_synth.c) and
+# `gradcheck`. Every check runs; the script exits 1 if any failed.
 set -euo pipefail
 
 if [[ $# -ne 2 ]]; then
@@ -312,12 +312,11 @@ expect_mentions "gradcheck --help documents --key" "--key K" "qpos0"
 
 
 #---------------------------------- synth and gradcheck: no gradient at run time -----------------
-# Usage errors, help, the loss's derivative self-test, and the mujoco engine (finite differences
-# of mj_step rollouts), none of which calls the gradient API (the binary still links it).
+# Usage errors, help, and the mujoco engine (finite differences of mj_step rollouts), none of
+# which calls the gradient API (the binary still links it).
 
 BOXM=$MODELS/robot_box.xml
-SYNTH_OPTIONS=(--trials --iters --seed --lr --engine --grad --fd --eps --csv --plot --model
-               --selftest)
+SYNTH_OPTIONS=(--trials --iters --seed --lr --engine --grad --fd --eps --csv --plot --model)
 GRADCHECK_OPTIONS=(--steps --h --seed --wrt --eps --tol --newton --ctrl --key)
 run synth --help
 expect_rc 0 "ostrich synth --help"
@@ -352,12 +351,6 @@ if grep -q "couple" "$tmp/err"; then
 else
   fail "gradcheck's refusal names the equality"
 fi
-
-run synth --selftest --model "$BOXM"
-expect_rc 0 "synth --selftest: heading, state cotangents and knot map against differences"
-expect_py "synth --selftest: every error below 1e-6" \
-  'j["ok"] is True and j["heading"] < 1e-6 and j["state_cotangent"] < 1e-6 and
-   j["knot_gradient"] < 1e-6'
 
 # one iteration of the mujoco engine: 1 + 30 rollouts of 3000 steps (about a second)
 SUMMARY_KEYS='["engine","trials","successes","success_rate","median_final_error",

@@ -38,7 +38,7 @@
 // world position, entries 3-5 the rotation in the local frame (q' = q * exp(delta / 2), as
 // mj_integratePos). With R' = R (I + [delta]x) the heading psi = atan2(R10, R00) moves by
 //   dpsi/ddelta = (0, R10 R02 - R00 R12, R00 R11 - R10 R01) / (R00^2 + R10^2);
-// `ostrich synth --selftest` checks it, the loss's other cotangents and W^T against finite
+// tests/test_ost_cli_synth.c checks it, the loss's other cotangents and W^T against finite
 // differences.
 //
 // Invariant: both engines optimize the same function of the same variables from the same
@@ -103,7 +103,6 @@ typedef struct synthArgs_ {       // arguments of `ostrich synth`
   const char* fd;                 // forward | central (mujoco)
   double      eps;                // finite-difference step (rad/s, mujoco)
   const char* grad;               // complete | truncated (ostrich)
-  int         selftest;           // --selftest was given
   int         help;               // --help was given
 } synthArgs;
 
@@ -142,10 +141,6 @@ static const cliOption kSynthOptions[] = {
   {"--model", CLI_ARG_STRING, offsetof(synthArgs, model), "FILE.xml",
    "scene: a free-jointed robot (joint 0) with nu wheel actuators\n"
    "(default mjcf_models/robot_box.xml, relative to the working directory)"},
-  {"--selftest", CLI_ARG_FLAG, offsetof(synthArgs, selftest), "",
-   "check the loss's cotangents (heading along the local rotation tangent,\n"
-   "position, velocity), the knot map W^T and the regularizers against\n"
-   "finite differences; print one JSON line and exit (no optimization)"},
 };
 
 static const int kSynthNumOptions = (int)(sizeof(kSynthOptions) / sizeof(kSynthOptions[0]));
@@ -1160,171 +1155,6 @@ static int synth_writePlot(const char* png, const synthEngine* engines, const sy
 }
 
 
-//---------------------------------- Self-test -----------------------------------------------------
-
-// Normwise relative error of a against b over n entries.
-static double synth_relErr(const double* a, const double* b, int n) {
-  double diff = 0, scale = 1e-12;
-  for (int i = 0; i < n; i++) {
-    diff = fmax(diff, fabs(a[i] - b[i]));
-    scale = fmax(scale, fabs(b[i]));
-  }
-  return diff / scale;
-}
-
-
-// A random unit quaternion: yaw up to +-pi, then a tilt of up to 0.5 rad about a random axis.
-static void synth_randomQuat(cliRng* rng, mjtNum q[4]) {
-  mjtNum yaw[4], tilt[4], axis[3];
-  mjtNum zaxis[3] = {0, 0, 1};
-  mju_axisAngle2Quat(yaw, zaxis, cli_uniform(rng, -mjPI, mjPI));
-  for (int i = 0; i < 3; i++) {
-    axis[i] = cli_uniform(rng, -1, 1);
-  }
-  mju_normalize3(axis);
-  mju_axisAngle2Quat(tilt, axis, cli_uniform(rng, -0.5, 0.5));
-  mju_mulQuat(q, yaw, tilt);
-}
-
-
-// `ostrich synth --selftest`: the loss's analytic derivatives against central differences.
-static int synth_selftest(const synthArgs* a) {
-  synthEngine e;
-  synthArgs am = *a;
-  if (synth_engineSetup(&e, "mujoco", &am)) {
-    synth_engineFree(&e);
-    return CLI_USAGE;
-  }
-  const mjModel* m = e.m;
-  int nq = m->nq, nv = m->nv, S = e.nsample, ns = S + 1, bad = 0;
-  double eps = 1e-6, err[3] = {0, 0, 0};
-  cliRng rng;
-  cli_rngSeed(&rng, (unsigned long long)a->seed);
-  mjtNum* q = (mjtNum*)synth_alloc((size_t)nq, sizeof(mjtNum), &bad);
-  mjtNum* qp = (mjtNum*)synth_alloc((size_t)nq, sizeof(mjtNum), &bad);
-  mjtNum* qm = (mjtNum*)synth_alloc((size_t)nq, sizeof(mjtNum), &bad);
-  mjtNum* dq = (mjtNum*)synth_alloc((size_t)nv, sizeof(mjtNum), &bad);
-  double* fd = (double*)synth_alloc((size_t)(2 * ns * nv + e.nvar), sizeof(double), &bad);
-  double* an = (double*)synth_alloc((size_t)(2 * ns * nv + e.nvar), sizeof(double), &bad);
-  double* gctrl = (double*)synth_alloc((size_t)(e.nstep * e.nu), sizeof(double), &bad);
-  double* knots = (double*)synth_alloc((size_t)e.nvar, sizeof(double), &bad);
-
-  // 1. heading along the local rotation tangent, at 50 random attitudes (mj_integratePos)
-  for (int trial = 0; trial < 50 && !bad; trial++) {
-    mjtNum dpsi[3];
-    mju_zero(q, nq);
-    synth_randomQuat(&rng, q + 3);
-    synth_heading(q + 3, dpsi);
-    for (int i = 0; i < 3; i++) {
-      mju_zero(dq, nv);
-      dq[3 + i] = 1;
-      mju_copy(qp, q, nq);
-      mju_copy(qm, q, nq);
-      mj_integratePos(m, qp, dq, eps);
-      mj_integratePos(m, qm, dq, -eps);
-      an[3 * trial + i] = dpsi[i];
-      fd[3 * trial + i] = synth_wrap(synth_heading(qp + 3, NULL) - synth_heading(qm + 3, NULL)) /
-                          (2 * eps);
-    }
-  }
-  err[0] = bad ? NAN : synth_relErr(an, fd, 150);
-
-  // 2. state cotangents of a random path (every sample's qpos tangent and qvel)
-  synthTask task = {{0.1, -0.1, 0.15}, {3, 0.2, -0.25}};
-  for (int s = 0; s < ns && !bad; s++) {
-    mjtNum* qs = e.qs + s * nq;
-    for (int i = 0; i < nq; i++) {
-      qs[i] = cli_uniform(&rng, -1, 1);
-    }
-    qs[0] = cli_uniform(&rng, -0.5, 4);
-    synth_randomQuat(&rng, qs + 3);
-    for (int i = 0; i < nv; i++) {
-      e.vs[s * nv + i] = cli_uniform(&rng, -1, 1);
-    }
-  }
-  synthEval ev;
-  if (!bad) {
-    synth_stateLoss(&e, &task, e.qs, e.vs, e.gqs, e.gus, &ev);
-    mju_copy(an, e.gqs, ns * nv);
-    mju_copy(an + ns * nv, e.gus, ns * nv);
-  }
-  for (int s = 0; s < ns && !bad; s++) {
-    for (int i = 0; i < 2 * nv; i++) {
-      double l[2];
-      for (int side = 0; side < 2; side++) {
-        double h = side ? -eps : eps;
-        mju_copy(q, e.qs + s * nq, nq);
-        mjtNum v = e.vs[s * nv + i % nv];
-        if (i < nv) {
-          mju_zero(dq, nv);
-          dq[i] = 1;
-          mj_integratePos(m, e.qs + s * nq, dq, h);
-        } else {
-          e.vs[s * nv + i - nv] += h;
-        }
-        l[side] = synth_stateLoss(&e, &task, e.qs, e.vs, NULL, NULL, &ev);
-        mju_copy(e.qs + s * nq, q, nq);
-        e.vs[s * nv + i % nv] = v;
-      }
-      fd[(i < nv ? 0 : ns * nv) + s * nv + i % nv] = (l[0] - l[1]) / (2 * eps);
-    }
-  }
-  err[1] = bad ? NAN : synth_relErr(an, fd, 2 * ns * nv);
-
-  // 3. knots: W^T of a random control gradient plus the regularizers, against differences of
-  //    sum_k gctrl_k . (W kappa)_k + regularizers
-  for (int c = 0; c < e.nvar && !bad; c++) {
-    knots[c] = cli_uniform(&rng, -3, 3);
-  }
-  for (int k = 0; k < e.nstep * e.nu && !bad; k++) {
-    gctrl[k] = cli_uniform(&rng, -1, 1);
-  }
-  if (!bad) {
-    mju_zero(an, e.nvar);
-    synth_pullback(&e, gctrl, an);
-    synth_regLoss(&e, knots, an);
-  }
-  for (int c = 0; c < e.nvar && !bad; c++) {
-    double l[2];
-    for (int side = 0; side < 2; side++) {
-      double saved = knots[c];
-      mjtNum u[64];
-      knots[c] += side ? -eps : eps;
-      l[side] = synth_regLoss(&e, knots, NULL);
-      for (int k = 0; k < e.nstep && e.nu <= 64; k++) {
-        synth_ctrl(&e, knots, k, u);
-        l[side] += mju_dot(gctrl + k * e.nu, u, e.nu);
-      }
-      knots[c] = saved;
-    }
-    fd[c] = (l[0] - l[1]) / (2 * eps);
-  }
-  err[2] = bad ? NAN : synth_relErr(an, fd, e.nvar);
-
-  int ok = !bad && err[0] < 1e-6 && err[1] < 1e-6 && err[2] < 1e-6;
-  printf("{\"selftest\":\"synth\",\"heading\":");
-  cli_jsonNumber(stdout, err[0]);
-  printf(",\"state_cotangent\":");
-  cli_jsonNumber(stdout, err[1]);
-  printf(",\"knot_gradient\":");
-  cli_jsonNumber(stdout, err[2]);
-  printf(",\"tol\":1e-06,\"ok\":%s}\n", ok ? "true" : "false");
-  if (bad) {
-    cli_error("synth: out of memory");
-  }
-  free(q);
-  free(qp);
-  free(qm);
-  free(dq);
-  free(fd);
-  free(an);
-  free(gctrl);
-  free(knots);
-  synth_engineFree(&e);
-  return ok ? CLI_OK : CLI_FAIL;
-}
-
-
 //---------------------------------- synth ---------------------------------------------------------
 
 // Draw the trials' tasks from one stream.
@@ -1384,9 +1214,6 @@ int synth_main(int argc, char** argv) {
   }
   if (synth_checkArgs(&a)) {
     return CLI_USAGE;
-  }
-  if (a.selftest) {
-    return synth_selftest(&a);
   }
 
   // engines: ostrich first when both; the same tasks for each
