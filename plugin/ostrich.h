@@ -5,6 +5,35 @@
 // 1-based index of a bad argument, the LAPACK convention). Library code never exits, aborts or
 // calls MuJoCo's default error handler; the message of the last failure on an mjData is kept and
 // returned by ost_lastError.
+//
+// Names (as MuJoCo's mj_/mju_/mjd_; functions visible outside their file follow this table):
+//   ost_    functions of this header (each marked OSTAPI) and the host pipeline behind them in
+//           plugin/ and cuda/ (ost_packModel, ost_batchRollout_gpu); in cuda/, the suffix _gpu
+//           marks a host launcher and _kernel a __global__ kernel
+//   osti_   per-world math in core/ headers, inline for host and device (OST_HD): no
+//           allocation, no globals, no MuJoCo calls (osti_evaluate, osti_stepDriven)
+//   ostu_   self-contained utilities in core/ headers: dense and tree factorizations, math
+//           kernels, the sizes, layouts and views of packed blocks, the terrain grid
+//           (ostu_cholFactor, ostu_modelSize)
+//   ostd_   derivatives: the C entry points of the dual-number code in plugin/ost_adjoint_dual.cc
+//           (C++), declared in plugin/ost_adjoint.h, called by the adjoint and the CPU batch's
+//           backward pass (ostd_stepJacobian); ostdStep (core/ost_adjoint.h) is the recorded
+//           substep they differentiate
+//   ostx_   core/ code that compiles only where ostNum is a dual number (C++, OST_NUM_TYPE =
+//           ostDual<N>): seeding and reading duals and the dual model (core/ost_dual.h), the
+//           forward-mode Jacobian of a step's residual, OSTX_CHUNK directions per pass
+//           (core/ost_adjoint_jacobian.h); used by plugin/ost_adjoint_dual.cc,
+//           cuda/ost_batch_adjoint.cu and tests/test_ost_dual.cc
+//   OST_    macros (OST_HD, OST_OK); OSTAPI marks exports; OSTU_ and OSTX_ macros belong to the
+//           ostu_ and ostx_ code; OSTRICH_ names include guards (OSTRICH_<DIR>_<FILE>_H_), build
+//           options (OSTRICH_CUDA) and the environment variable OSTRICH_QUIET
+//   ostX    types: structs (ostModel, ostStats), this header's enums (ostStatus), the scalar
+//           ostNum (float, double or a dual number); osttX are core's enums numbered as
+//           MuJoCo's mjtX (osttJoint, osttGeom, osttRow)
+//   cli_    the `ostrich` program's shared helpers (plugin/cli/); each subcommand's entry point
+//           and own functions take its name (synth_main); cmp_ is the shared code of its
+//           `compare` subcommands (compare/). mj_ names in plugin/ost_preload.c are MuJoCo's
+//           own, replaced by the preload shim
 #ifndef OSTRICH_PLUGIN_OSTRICH_H_
 #define OSTRICH_PLUGIN_OSTRICH_H_
 
