@@ -20,22 +20,13 @@ HUMANOID=$3
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 export OSTRICH_QUIET=1
-nfail=0
+source "$(dirname "$0")/lib.sh"
 
 
-pass() { echo "ok:   $1"; }
-fail() {
-  nfail=$((nfail + 1))
-  echo "FAIL: $1 (exit $rc)" >&2
-  sed 's/^/      stdout: /' "$tmp/out" | head -n 5 >&2
-  sed 's/^/      stderr: /' "$tmp/err" | head -n 5 >&2
-}
-
-
-# run the tool; sets rc, leaves stdout and stderr in $tmp/out and $tmp/err
-run() {
-  rc=0
-  "$BIN" bench models "$@" >"$tmp/out" 2>"$tmp/err" || rc=$?
+# a failure shows the exit code on its FAIL line, then the last run's output (not the command)
+fail_report() {
+  echo "FAIL: $1 (exit $rc)"
+  fail_output
 }
 
 
@@ -76,7 +67,7 @@ cat >"$tmp/refused.xml" <<'EOF'
 </mujoco>
 EOF
 
-run "$MODELS/cartpole.xml" "$MODELS/box_plane.xml" "$tmp/refused.xml" --duration 0.05 \
+run bench models "$MODELS/cartpole.xml" "$MODELS/box_plane.xml" "$tmp/refused.xml" --duration 0.05 \
   --scaling 1,2 --scaling-steps 3 --humanoid "$HUMANOID" --csv "$tmp/out.csv"
 if [[ $rc -eq 0 && -s $tmp/out.csv && ! -e $tmp/out.csv.tmp ]]; then
   pass "two models, a refusal and --scaling 1,2: exit 0, CSV written and renamed"
@@ -123,7 +114,8 @@ fi
 
 #---------------------------------- stopped runs and usage errors ---------------------------------
 
-run "$MODELS/cartpole.xml" --duration 0.05 --max-wall 1e-9 --h-scale 2 --csv "$tmp/out.csv"
+run bench models "$MODELS/cartpole.xml" --duration 0.05 --max-wall 1e-9 --h-scale 2 \
+  --csv "$tmp/out.csv"
 if [[ $rc -eq 0 ]]; then pass "--max-wall: exit 0"; else fail "--max-wall: expected exit 0"; fi
 expect_csv "--max-wall: every run stopped after one step, and says so" \
   '[r["status"] for r in rows] == ["stopped"] * 3 and all(r["steps"] == "1" and
@@ -132,7 +124,7 @@ expect_csv "--max-wall: every run stopped after one step, and says so" \
 # a failed step (the contact capacity of nconmax 1) stops that run, is reported, and exits 1
 sed 's#<mujoco\([^>]*\)>#<mujoco\1><size nconmax="1"/>#' "$MODELS/box_plane.xml" \
   >"$tmp/overflow.xml"
-run "$tmp/overflow.xml" --duration 0.01 --h-scale 2 --csv "$tmp/out.csv"
+run bench models "$tmp/overflow.xml" --duration 0.01 --h-scale 2 --csv "$tmp/out.csv"
 if [[ $rc -eq 1 ]]; then pass "a failed step: exit 1"; else fail "a failed step: expected exit 1"; fi
 expect_csv "a failed step: ostrich runs failed with the message, MuJoCo's warnings noted" \
   '[r["status"] for r in rows] == ["ok", "failed", "failed"] and all("capacity" in r["message"]
@@ -143,7 +135,7 @@ expect_usage() {
   local desc=$1
   shift
   rm -f "$tmp/out.csv"
-  run "$@"
+  run bench models "$@"
   if [[ $rc -eq 2 && ! -s $tmp/out && ! -e $tmp/out.csv ]] && grep -q '^ostrich: ' "$tmp/err"
   then
     pass "$desc (exit 2: $(head -n 1 "$tmp/err"))"
@@ -157,7 +149,7 @@ expect_usage "an unwritable --csv directory" "$MODELS/cartpole.xml" --csv "$tmp/
 expect_usage "a bad --h-scale" "$MODELS/cartpole.xml" --h-scale 5,-1
 expect_usage "a bad --scaling" --scaling 1,x
 expect_usage "no model and no --scaling" --duration 1
-run --help
+run bench models --help
 if [[ $rc -eq 0 ]] && grep -q -- "--scaling-steps" "$tmp/out"; then
   pass "--help (exit 0)"
 else

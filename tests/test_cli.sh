@@ -17,50 +17,15 @@ BIN=$1
 MODELS=$2
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-nfail=0
-npass=0
+source "$(dirname "$0")/lib.sh"
 
 
-# report one check
-pass() { npass=$((npass + 1)); echo "ok:   $1"; }
-fail() {
-  nfail=$((nfail + 1))
-  echo "FAIL: $1" >&2
-  echo "      command: ostrich ${cmd[*]}" >&2
-  echo "      exit code: $rc" >&2
-  sed 's/^/      stdout: /' "$tmp/out" | head -n 5 >&2
-  sed 's/^/      stderr: /' "$tmp/err" | head -n 5 >&2
-}
-
-
-# run the tool; sets rc and leaves stdout/stderr in $tmp/out and $tmp/err
-run() {
-  cmd=("$@")
-  rc=0
-  "$BIN" "$@" >"$tmp/out" 2>"$tmp/err" || rc=$?
-}
-
-
-# expect_rc WANT DESC: check the exit code of the last run
-expect_rc() {
-  if [[ $rc -eq $1 ]]; then pass "$2 (exit $1)"; else fail "$2: expected exit $1"; fi
-}
-
-
-# expect_usage_error DESC ARGS...: exit 2, nothing on stdout, an "ostrich:" message on stderr
-expect_usage_error() {
-  local desc=$1
-  shift
-  run "$@"
-  if [[ $rc -ne 2 ]]; then
-    fail "$desc: expected exit 2"
-  elif [[ -s $tmp/out ]]; then
-    fail "$desc: expected nothing on stdout"
-  elif ! grep -q '^ostrich: ' "$tmp/err"; then
-    fail "$desc: expected a message starting with 'ostrich: ' on stderr"
-  else
-    pass "$desc (exit 2: $(grep -m1 '^ostrich: ' "$tmp/err"))"
-  fi
+# a failure shows the command and its exit code on lines of their own
+fail_report() {
+  echo "FAIL: $1"
+  echo "      command: ostrich ${cmd[*]}"
+  echo "      exit code: $rc"
+  fail_output
 }
 
 

@@ -20,29 +20,16 @@ MODE=$3
 export OSTRICH_QUIET=0            # the progress lines are checked
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-nfail=0
+source "$(dirname "$0")/lib.sh"
 
 
-# report one check
-pass() { echo "ok:   $1"; }
-fail() {
-  nfail=$((nfail + 1))
-  echo "FAIL: $1" >&2
-  echo "      command: ostrich ${cmd[*]} (exit $rc)" >&2
-  head -c 600 "$tmp/out" | sed 's/^/      stdout: /' >&2
-  tail -n 5 "$tmp/err" | sed 's/^/      stderr: /' >&2
-}
+# a failure shows the first 600 bytes of stdout and the last 5 lines of stderr
+fail_out() { head -c 600; }
+fail_err() { tail -n 5; }
 
 
-# run the tool; sets rc and leaves stdout/stderr in $tmp/out and $tmp/err
-run() {
-  cmd=("$@")
-  rc=0
-  "$BIN" "$@" >"$tmp/out" 2>"$tmp/err" || rc=$?
-}
-
-
-# expect_usage_error DESC ARGS...: exit 2, nothing on stdout, an "ostrich:" line on stderr
+# expect_usage_error DESC ARGS...: exit 2, nothing on stdout, an "ostrich:" line on stderr (this
+# script's own, in place of lib.sh's: ARGS follow `compare hard`, and one message for any miss)
 expect_usage_error() {
   local desc=$1
   shift

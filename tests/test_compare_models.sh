@@ -25,27 +25,12 @@ MODE=$4
 shift 4
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-nfail=0
-npass=0
+source "$(dirname "$0")/lib.sh"
 
 
-# report one check
-pass() { npass=$((npass + 1)); echo "ok:   $1"; }
-fail() {
-  nfail=$((nfail + 1))
-  echo "FAIL: $1" >&2
-  echo "      command: ostrich ${cmd[*]} (exit $rc)" >&2
-  sed 's/^/      stdout: /' "$tmp/out" | tail -n 12 >&2
-  { grep -v '^mujoco warning' "$tmp/err" || true; } | sed 's/^/      stderr: /' | head -n 5 >&2
-}
-
-
-# run the tool; sets rc and leaves stdout/stderr in $tmp/out and $tmp/err
-run() {
-  cmd=("$@")
-  rc=0
-  "$BIN" "$@" >"$tmp/out" 2>"$tmp/err" || rc=$?
-}
+# a failure shows the last 12 lines of stdout and 5 of stderr, less MuJoCo's warnings
+fail_out() { tail -n 12; }
+fail_err() { without_mujoco_warnings | head -n 5; }
 
 
 # expect_py DESC EXPR CSV: python EXPR holds, with rows = the CSV's rows as dicts, row(model,
@@ -79,12 +64,6 @@ EOF
 }
 
 
-# expect_rc DESC CODE: the last run exited with CODE
-expect_rc() {
-  if [[ $rc -eq $2 ]]; then pass "$1 (exit $rc)"; else fail "$1: expected exit $2"; fi
-}
-
-
 HEADER="model,engine,ctrl,h_scale,h,status,steps,simulated_s,converged_pct,unconverged_steps,\
 failed_steps,max_penetration,wall_per_sim_s,error,reason"
 
@@ -95,7 +74,7 @@ run)
   csv=$tmp/models.csv
   run compare models "$MODELS/box_plane.xml" "$MODELS/cartpole.xml" --duration 0.5 --csv "$csv" \
     --plot "$tmp/models.png"
-  expect_rc "run: two accepted models, no failure" 0
+  expect_rc 0 "run: two accepted models, no failure"
   expect_py "run: the CSV header" "','.join(header) == '$HEADER'" "$csv"
   expect_py "run: one row per model, engine, controls and h-scale, all completed" \
     'len(rows) == 2 * 2 * 2 * 4 and all(r["status"] == "ok" and r["failed_steps"] == "0" and
@@ -148,7 +127,7 @@ refused)
   printf '<mujoco><worldbody><body></worldbody></mujoco>\n' >"$tmp/malformed.xml"
   run compare models "$TEST_MODELS/unsupported_frictionloss.xml" "$tmp/malformed.xml" \
     "$MODELS/cartpole.xml" --duration 0.1 --h-scale 1 --csv "$csv"
-  expect_rc "refused: a refusal and a load failure are results, not failures" 0
+  expect_rc 0 "refused: a refusal and a load failure are results, not failures"
   expect_py "refused: the refused model is one row with ost_checkModel's reason" \
     'len([r for r in rows if r["model"] == "unsupported_frictionloss"]) == 1 and
      [(r["engine"], r["status"]) for r in rows if r["model"] == "unsupported_frictionloss"] ==
@@ -167,7 +146,7 @@ refused)
   # accepted model must not do, so the exit status says so
   run compare models "$TEST_MODELS/too_many_contacts.xml" --duration 0.1 --h-scale 1 \
     --ctrl zero --engine ostrich --csv "$csv"
-  expect_rc "refused: a failed Ostrich step makes the exit status 1" 1
+  expect_rc 1 "refused: a failed Ostrich step makes the exit status 1"
   expect_py "refused: the failed step is counted and its message kept" \
     'rows[0]["status"] == "failed" and rows[0]["failed_steps"] == "1" and
      rows[0]["reason"] != ""' "$csv"
@@ -185,9 +164,9 @@ outputs)
     fi
   done
   run compare models "$MODELS/cartpole.xml" --plot "$tmp/no/such/dir/x.png"
-  expect_rc "outputs: a bad --plot path rejected" 2
+  expect_rc 2 "outputs: a bad --plot path rejected"
   run compare models "$MODELS/cartpole.xml" --h-scale 1,x
-  expect_rc "outputs: a bad --h-scale rejected" 2
+  expect_rc 2 "outputs: a bad --h-scale rejected"
 
   # a run of about a minute, killed after a second: the previous CSV must be intact
   printf 'previous results\n' >"$tmp/keep.csv"
@@ -217,7 +196,7 @@ corpus)
   fi
   csv=$tmp/corpus.csv
   run compare models "$@" --duration 0.2 --h-scale 1,5 --csv "$csv"
-  expect_rc "corpus: no Ostrich run diverged or failed on an accepted sample model" 0
+  expect_rc 0 "corpus: no Ostrich run diverged or failed on an accepted sample model"
   expect_py "corpus: every model given is accepted and every run completed" \
     'len(rows) == '$#' * 2 * 2 * 2 and all(r["status"] == "ok" for r in rows)' "$csv"
   # the converged share: Ostrich's default Newton budget solves these scenes to tol in most

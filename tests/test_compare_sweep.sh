@@ -19,44 +19,12 @@ LOGS=$3/logs
 COMMANDS=$3/pallet_commands.csv
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-nfail=0
-npass=0
+source "$(dirname "$0")/lib.sh"
 
 
-# report one check
-pass() { npass=$((npass + 1)); echo "ok:   $1"; }
-fail() {
-  nfail=$((nfail + 1))
-  echo "FAIL: $1" >&2
-  echo "      command: ostrich ${cmd[*]} (exit $rc)" >&2
-  sed 's/^/      stdout: /' "$tmp/out" | head -n 3 >&2
-  { grep -v '^mujoco warning' "$tmp/err" || true; } | sed 's/^/      stderr: /' | head -n 5 >&2
-}
-
-
-# run the tool; sets rc and leaves stdout/stderr in $tmp/out and $tmp/err
-run() {
-  cmd=("$@")
-  rc=0
-  "$BIN" "$@" >"$tmp/out" 2>"$tmp/err" || rc=$?
-}
-
-
-# expect_usage_error DESC ARGS...: exit 2, nothing on stdout, an "ostrich:" message on stderr
-expect_usage_error() {
-  local desc=$1
-  shift
-  run "$@"
-  if [[ $rc -ne 2 ]]; then
-    fail "$desc: expected exit 2"
-  elif [[ -s $tmp/out ]]; then
-    fail "$desc: expected nothing on stdout"
-  elif ! grep -q '^ostrich: ' "$tmp/err"; then
-    fail "$desc: expected a message starting with 'ostrich: ' on stderr"
-  else
-    pass "$desc (exit 2: $(grep -m1 '^ostrich: ' "$tmp/err"))"
-  fi
-}
+# a failure shows 3 lines of stdout and 5 of stderr, less MuJoCo's warnings
+fail_out() { head -n 3; }
+fail_err() { without_mujoco_warnings | head -n 5; }
 
 
 # expect_py DESC EXPR [CSV]: exit 0 and python EXPR holds, with j = the single JSON line on
