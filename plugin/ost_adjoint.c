@@ -13,7 +13,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "ost_adjoint.h"
+#include "ost_adjoint_dual.h"
 #include "ost_internal.h"
 
 //---------------------------------- Parameters ----------------------------------------------------

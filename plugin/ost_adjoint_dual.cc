@@ -1,7 +1,7 @@
 // ost_adjoint_dual.cc: the plugin's dual-number translation unit. core/ (native kinematics,
 // dynamics, collision, rows and the step's residual) compiled once more with ostNum =
 // ostDual<OSTX_CHUNK>, and core/ost_adjoint_jacobian.h's exact step Jacobian behind the C seam of
-// ost_adjoint.h. The work owns a dual copy of the model, so parameters can be seeded.
+// ost_adjoint_dual.h. The work owns a dual copy of the model, so parameters can be seeded.
 // Invariant: reads the packed model and the step's inputs; writes only its work block and G.
 #include <stdlib.h>
 #include <string.h>
@@ -11,7 +11,7 @@
 #define OSTX_CHUNK 8
 #define OST_NUM_TYPE ostDual<OSTX_CHUNK>
 
-#include "ost_adjoint.h"
+#include "ost_adjoint_dual.h"
 #include "../core/ost_adjoint_jacobian.h"
 
 namespace {

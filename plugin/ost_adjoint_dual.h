@@ -1,11 +1,11 @@
-// ost_adjoint.h: the internal seam between the adjoint's host code (ost_adjoint.c, C) and the
+// ost_adjoint_dual.h: the internal seam between the adjoint's host code (ost_adjoint.c, C) and the
 // dual-number evaluation of a step's residual (ost_adjoint_dual.cc, C++, on core's
 // ost_adjoint_jacobian.h). Plain C types only, so that it can be included where ostNum is double
 // and where it is a dual number.
 // Invariant: the dual side reads the packed model and the inputs, and writes only its own work
 // block and the caller's output matrix.
-#ifndef OSTRICH_PLUGIN_OST_ADJOINT_H_
-#define OSTRICH_PLUGIN_OST_ADJOINT_H_
+#ifndef OSTRICH_PLUGIN_OST_ADJOINT_DUAL_H_
+#define OSTRICH_PLUGIN_OST_ADJOINT_DUAL_H_
 
 #include <stddef.h>
 
@@ -49,4 +49,4 @@ void ostd_recordColumns(void* work, const ostAdjointLayout* A, char* lanes, int 
 }
 #endif
 
-#endif  // OSTRICH_PLUGIN_OST_ADJOINT_H_
+#endif  // OSTRICH_PLUGIN_OST_ADJOINT_DUAL_H_

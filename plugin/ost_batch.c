@@ -15,7 +15,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "ost_adjoint.h"
+#include "ost_adjoint_dual.h"
 #include "ost_batch_internal.h"
 
 

@@ -5,7 +5,7 @@
 #ifndef OSTRICH_PLUGIN_OST_BATCH_INTERNAL_H_
 #define OSTRICH_PLUGIN_OST_BATCH_INTERNAL_H_
 
-#include "ost_adjoint.h"
+#include "ost_adjoint_dual.h"
 #include "ost_batch.h"
 #include "ost_batch_adjoint.h"
 #include "ost_internal.h"

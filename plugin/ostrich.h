@@ -16,7 +16,7 @@
 //           kernels, the sizes, layouts and views of packed blocks, the terrain grid
 //           (ostu_cholFactor, ostu_modelSize)
 //   ostd_   derivatives: the C entry points of the dual-number code in plugin/ost_adjoint_dual.cc
-//           (C++), declared in plugin/ost_adjoint.h, called by the adjoint and the CPU batch's
+//           (C++), declared in plugin/ost_adjoint_dual.h, called by the adjoint and the CPU batch's
 //           backward pass (ostd_stepJacobian); ostdStep (core/ost_adjoint.h) is the recorded
 //           substep they differentiate
 //   ostx_   core/ code that compiles only where ostNum is a dual number (C++, OST_NUM_TYPE =
