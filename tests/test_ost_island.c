@@ -1,6 +1,7 @@
 // test_ost_island.c: constraint islands (core/ost_island.h). Bodies that share no contact,
 // joint or tree are solved as separate Newton systems: a stack stepped next to another, far
-// away, takes exactly the steps it takes alone (same bits), however the other one converges;
+// away, takes exactly the steps it takes alone (same bits), however many iterates the other one
+// needs (as long as it does not make the step split: splitting halves the whole step);
 // the step reports one island per independent system and the worst island's residual.
 #include <math.h>
 #include <stdio.h>
