@@ -36,10 +36,14 @@ typedef struct sweepArgs_ {       // arguments of `ostrich compare sweep`
   double      ceiling;            // error (m or rad) above which a run counts as diverged
   long        repeats;            // runs per engine and h, the commands perturbed by 1e-9
   const char* out;                // output directory
+  long        key;                // start from this keyframe; -1: qpos0 at rest
   int         help;               // --help was given
 } sweepArgs;
 
 static const cliOption kSweepOptions[] = {
+  {"--key", CLI_ARG_COUNT, offsetof(sweepArgs, key), "K",
+   "start every run and the reference from keyframe K (mj_resetDataKeyframe:\n"
+   "time, qpos, qvel, act, ctrl, mocap); default: qpos0 at rest"},
   {"--ctrl-file", CLI_ARG_STRING, offsetof(sweepArgs, ctrl_file), "CMD.csv",
    "commands: header time,<one column per actuator>; zero-order hold.\n"
    "Default: the robot (actuators v_left,v_right,v_rear) gets the built-in\n"
@@ -152,6 +156,7 @@ typedef struct sweepState_ {      // the whole sweep
   sweepPlateau  plateau[CMP_NENGINE];  // per engine
   char          csv_path[SWEEP_PATH_SZ];
   int           plots;            // 1 if the two PNGs were written
+  int           key;              // runs start from keyframe key - 1; 0: qpos0 at rest
 } sweepState;
 
 
@@ -220,7 +225,7 @@ static int sweep_reference(const sweepArgs* a, sweepState* s, int r) {
   }
   cmpRunResult res;
   cmpRunSpec spec = {.engine = CMP_MUJOCO, .h = s->h_ref, .duration = s->duration,
-                     .commands = s->perturbed.nrow ? &s->perturbed : NULL};
+                     .commands = s->perturbed.nrow ? &s->perturbed : NULL, .key = s->key};
   cmp_freeTrajectory(&s->reference);
   if (cmp_run(s->m, &spec, &s->reference, &res) || res.outcome != CMP_COMPLETED) {
     cli_error("the reference run (mujoco, h = %g) failed: %s", s->h_ref, res.why);
@@ -262,7 +267,7 @@ static int sweep_runOne(sweepState* s, sweepRow* row, double ceiling, double* er
                         cmpRunResult* res) {
   cmpTrajectory tr;
   cmpRunSpec spec = {.engine = row->engine, .h = row->h, .duration = s->duration,
-                     .commands = s->perturbed.nrow ? &s->perturbed : NULL};
+                     .commands = s->perturbed.nrow ? &s->perturbed : NULL, .key = s->key};
   int oom = cmp_run(s->m, &spec, &tr, res);
   *error = oom ? NAN : cmp_trajectoryError(&tr, &s->reference, CMP_SAMPLE_DT);
   cmp_freeTrajectory(&tr);
@@ -485,6 +490,11 @@ static void sweep_plots(sweepState* s, const char* dir, const char* model, doubl
 static void sweep_report(const sweepArgs* a, const sweepState* s, const char* dir, double wall) {
   printf("{\"model\":");
   cli_jsonString(stdout, a->model);
+  if (s->key > 0) {
+    printf(",\"key\":%d", s->key - 1);
+  } else {
+    printf(",\"key\":null");
+  }
   printf(",\"commands\":");
   cli_jsonString(stdout, a->ctrl_file ? a->ctrl_file : s->commands_source);
   printf(",\"duration\":");
@@ -531,7 +541,7 @@ static void sweep_report(const sweepArgs* a, const sweepState* s, const char* di
 static int sweep_parse(int argc, char** argv, sweepArgs* a, sweepState* s) {
   *a = (sweepArgs){.h_grid = "0.0005,0.001,0.002,0.005,0.01,0.02,0.05,0.1,0.2",
                    .engines = "ostrich,mujoco", .ceiling = 0.5, .repeats = 5,
-                   .out = "sweep"};
+                   .out = "sweep", .key = -1};
   if (cli_parseArgs("compare sweep", argc, argv, kSweepOptions, kSweepNumOptions, a, &a->model,
                     &a->help)) {
     return 1;
@@ -583,6 +593,11 @@ int compare_sweep_main(int argc, char** argv) {
   if (d) {
     mj_deleteData(d);
   }
+  if (status == CLI_OK && a.key >= s.m->nkey) {
+    cli_error("--key %ld: %s has %d keyframes", a.key, a.model, s.m->nkey);
+    status = CLI_USAGE;
+  }
+  s.key = (int)a.key + 1;
   if (status == CLI_OK && mkdir(a.out, 0755) && errno != EEXIST) {
     cli_error("cannot create '%s': %s", a.out, strerror(errno));
     status = CLI_USAGE;

@@ -87,6 +87,8 @@ expect_usage_error "sweep: negative h" compare sweep "$PALLET" --h-grid 0.01,-0.
 expect_usage_error "sweep: unknown engine" compare sweep "$PALLET" --engines ostrich,bullet
 expect_usage_error "sweep: malformed reference" compare sweep "$PALLET" --reference \
   "$tmp/two_columns.csv" --h-grid 0.01 --out "$tmp/s"
+expect_usage_error "sweep: --key beyond the model's keyframes" compare sweep "$PALLET" --key 3 \
+  --out "$tmp/k"
 expect_usage_error "replay: missing log" compare replay "$tmp/none.csv" "$PALLET"
 expect_usage_error "replay: no model" compare replay "$LOGS/train_02.csv"
 expect_usage_error "replay: wrong log columns" compare replay "$tmp/bad_log.csv" "$PALLET"
@@ -173,6 +175,17 @@ expect_py "replay: MuJoCo within 5 cm, Ostrich within 10 cm on train_02" \
    j["ostrich"]["outcome"] == "completed" and j["ostrich"]["steps"] == 152'
 expect_py "replay: trajectory written" 'len(rows) == 153 and float(rows[-1]["x"]) > 5' \
   "$tmp/replay_ostrich.csv"
+
+
+# --key: every run and the reference start from the keyframe (a ball thrown down at 20 m/s from
+# 1.1 m hits the floor within 0.2 s, so both engines move it; from qpos0 it would rest)
+run compare sweep "$2/hard_ball_fast.xml" --key 0 --h-grid 0.002,0.01 --repeats 1 \
+  --duration 0.2 --out "$tmp/sweep_key"
+expect_py "sweep --key 0: runs start from the keyframe (the ball moves in every run)" \
+  'j["key"] == 0 and j["runs"] == 4 and j["ostrich"]["diverged"] == 0 and
+   j["mujoco"]["min_error"] > 0 and j["ostrich"]["min_error"] > 0'
+expect_py "sweep --key 0: every row completed" \
+  'len(rows) == 4 and all(r["outcome"] == "completed" for r in rows)' "$tmp/sweep_key/sweep.csv"
 
 
 #---------------------------------- identify ------------------------------------------------------
