@@ -143,6 +143,28 @@ OST_HD void osti_projectRows(ostNum* lambda, const ostRow* rows, int nrow) {
 }
 
 
+// squared distance of the matching keys of rows p and r
+OST_HD ostNum osti_keyDist2(const ostRow* p, const ostRow* r) {
+  ostNum dx = p->key[0] - r->key[0], dy = p->key[1] - r->key[1], dz = p->key[2] - r->key[2];
+  return dx * dx + dy * dy + dz * dz;
+}
+
+
+// new row i takes previous row best's multiplier (best marked used); the friction rows of a
+// matched contact inherit the previous tangential multipliers
+OST_HD void osti_takeMatch(ostNum* lambda, const ostRow* rows, int nrow, int i,
+                           const ostNum* prev_lambda, const ostRow* prev, int nprev,
+                           unsigned char* used, int best) {
+  used[best] = 1;
+  lambda[i] = prev_lambda[best];
+  if (rows[i].type == OST_ROW_CONTACT && i + 2 < nrow && rows[i + 1].type == OST_ROW_FRICTION
+      && best + 2 < nprev && prev[best + 1].type == OST_ROW_FRICTION) {
+    lambda[i + 1] = prev_lambda[best + 1];
+    lambda[i + 2] = prev_lambda[best + 2];
+  }
+}
+
+
 // order of rows a, b of one list by (type, obj[0], obj[1]), then index: < 0, 0 or > 0
 OST_HD int osti_rowOrder(const ostRow* rows, int a, int b) {
   const ostRow *p = rows + a, *q = rows + b;
@@ -212,22 +234,14 @@ OST_HD void osti_matchRowsSorted(ostNum* lambda, const ostRow* rows, int nrow,
       if (used[j]) {
         continue;
       }
-      ostNum dx = p->key[0] - r->key[0], dy = p->key[1] - r->key[1], dz = p->key[2] - r->key[2];
-      ostNum d2 = dx * dx + dy * dy + dz * dz;
+      ostNum d2 = osti_keyDist2(p, r);
       if (d2 < best_d2) {
         best_d2 = d2;
         best = j;
       }
     }
-    if (best < 0) {
-      continue;
-    }
-    used[best] = 1;
-    lambda[i] = prev_lambda[best];
-    if (r->type == OST_ROW_CONTACT && i + 2 < nrow && rows[i + 1].type == OST_ROW_FRICTION
-        && best + 2 < nprev && prev[best + 1].type == OST_ROW_FRICTION) {
-      lambda[i + 1] = prev_lambda[best + 1];
-      lambda[i + 2] = prev_lambda[best + 2];
+    if (best >= 0) {
+      osti_takeMatch(lambda, rows, nrow, i, prev_lambda, prev, nprev, used, best);
     }
   }
 }
@@ -257,23 +271,14 @@ OST_HD void osti_matchRows(ostNum* lambda, const ostRow* rows, int nrow,
       if (used[j] || p->type != r->type || p->obj[0] != r->obj[0] || p->obj[1] != r->obj[1]) {
         continue;
       }
-      ostNum dx = p->key[0] - r->key[0], dy = p->key[1] - r->key[1], dz = p->key[2] - r->key[2];
-      ostNum d2 = dx * dx + dy * dy + dz * dz;
+      ostNum d2 = osti_keyDist2(p, r);
       if (d2 < best_d2) {
         best_d2 = d2;
         best = j;
       }
     }
-    if (best < 0) {
-      continue;
-    }
-    used[best] = 1;
-    lambda[i] = prev_lambda[best];
-    // friction rows of a matched contact inherit the previous tangential multipliers
-    if (r->type == OST_ROW_CONTACT && i + 2 < nrow && rows[i + 1].type == OST_ROW_FRICTION
-        && best + 2 < nprev && prev[best + 1].type == OST_ROW_FRICTION) {
-      lambda[i + 1] = prev_lambda[best + 1];
-      lambda[i + 2] = prev_lambda[best + 2];
+    if (best >= 0) {
+      osti_takeMatch(lambda, rows, nrow, i, prev_lambda, prev, nprev, used, best);
     }
   }
 }

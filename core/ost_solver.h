@@ -244,6 +244,29 @@ OST_HD ostNum* osti_rowScratch(ostWorld* w, int n) {
 }
 
 
+// rows n .. n+g-1 from the g dense rows of osti_rowScratch on the pattern of cnt columns that
+// row n's Jind holds in descending order (made ascending here)
+OST_HD void osti_rowStorePattern(ostWorld* w, int n, int g, int cnt) {
+  int nv = w->nv, ncol = w->ncol;
+  int* ind = w->Jind + (size_t)n * ncol;
+  for (int a = 0, b = cnt - 1; a < b; a++, b--) {  // ascending
+    int t = ind[a];
+    ind[a] = ind[b];
+    ind[b] = t;
+  }
+  for (int r = 0; r < g; r++) {
+    int* ri = w->Jind + (size_t)(n + r) * ncol;
+    ostNum* rv = w->J + (size_t)(n + r) * ncol;
+    const ostNum* src = w->Jrow + (size_t)r * nv;
+    w->Jnnz[n + r] = cnt;
+    for (int k = 0; k < cnt; k++) {
+      ri[k] = ind[k];
+      rv[k] = src[ind[k]];
+    }
+  }
+}
+
+
 // store the g dense rows of osti_rowScratch as rows n .. n+g-1 with one shared pattern: the
 // columns, ascending, where one of them is non-zero or which are an ancestor of such a column.
 // Returns 0, or 1 if the pattern is wider than ncol (the row is not stored).
@@ -274,21 +297,7 @@ OST_HD int osti_rowStore(ostWorld* w, int n, int g) {
       }
     }
   }
-  for (int a = 0, b = cnt - 1; a < b; a++, b--) {  // ascending
-    int t = ind[a];
-    ind[a] = ind[b];
-    ind[b] = t;
-  }
-  for (int r = 0; r < g; r++) {
-    int* ri = w->Jind + (size_t)(n + r) * ncol;
-    ostNum* rv = w->J + (size_t)(n + r) * ncol;
-    const ostNum* src = w->Jrow + (size_t)r * nv;
-    w->Jnnz[n + r] = cnt;
-    for (int k = 0; k < cnt; k++) {
-      ri[k] = ind[k];
-      rv[k] = src[ind[k]];
-    }
-  }
+  osti_rowStorePattern(w, n, g, cnt);
   return 0;
 }
 
@@ -301,7 +310,7 @@ OST_HD int osti_rowStoreChains(ostWorld* w, int n, int g, int last1, int last2) 
   if (!w->Jnnz) {
     return 0;
   }
-  int nv = w->nv, ncol = w->ncol, cnt = 0;
+  int ncol = w->ncol, cnt = 0;
   int* ind = w->Jind + (size_t)n * ncol;
   const int* parent = w->dof_parent;
   // both chains descend towards the root: merge them into one descending list of distinct dofs
@@ -315,21 +324,7 @@ OST_HD int osti_rowStoreChains(ostWorld* w, int n, int g, int last1, int last2) 
     if (a == c) a = parent[a];
     if (b == c) b = parent[b];
   }
-  for (int x = 0, y = cnt - 1; x < y; x++, y--) {  // ascending
-    int t = ind[x];
-    ind[x] = ind[y];
-    ind[y] = t;
-  }
-  for (int r = 0; r < g; r++) {
-    int* ri = w->Jind + (size_t)(n + r) * ncol;
-    ostNum* rv = w->J + (size_t)(n + r) * ncol;
-    const ostNum* src = w->Jrow + (size_t)r * nv;
-    w->Jnnz[n + r] = cnt;
-    for (int k = 0; k < cnt; k++) {
-      ri[k] = ind[k];
-      rv[k] = src[ind[k]];
-    }
-  }
+  osti_rowStorePattern(w, n, g, cnt);
   return 0;
 }
 
@@ -650,28 +645,8 @@ OST_HD void osti_massSolveSet(const ostWorld* w, const ostRowSet* set, ostNum* x
     osti_massSolve(w, x);
     return;
   }
-  int nv = w->nv;
   for (int t = 0; t < set->ntree; t++) {
-    int r0 = set->tree[t], r1 = w->tree_end[r0];
-    for (int i = r1 - 1; i >= r0; i--) {  // L^-T
-      ostNum xi = x[i];
-      if (OSTU_SKIPPABLE(xi)) {
-        continue;
-      }
-      for (int j = w->dof_parent[i]; j >= 0; j = w->dof_parent[j]) {
-        x[j] -= w->M[(size_t)i * nv + j] * xi;
-      }
-    }
-    for (int i = r0; i < r1; i++) {  // D^-1
-      x[i] /= w->M[(size_t)i * nv + i];
-    }
-    for (int i = r0; i < r1; i++) {  // L^-1
-      ostNum s = x[i];
-      for (int j = w->dof_parent[i]; j >= 0; j = w->dof_parent[j]) {
-        s -= w->M[(size_t)i * nv + j] * x[j];
-      }
-      x[i] = s;
-    }
+    ostu_treeSolveRange(x, w->M, w->dof_parent, w->nv, set->tree[t], w->tree_end[set->tree[t]]);
   }
 }
 
@@ -679,30 +654,24 @@ OST_HD void osti_massSolveSet(const ostWorld* w, const ostRowSet* set, ostNum* x
 // t = J' x over the set's rows (x local), zero on the set's other dofs
 OST_HD void osti_mulJTSet(const ostWorld* w, const ostRowSet* set, ostNum* OST_RESTRICT t,
                           const ostNum* x) {
-  if (!set->tree) {
-    for (int j = 0; j < w->nv; j++) {
+  if (!set->row) {
+    osti_mulJT(w, t, x);  // the whole world: rows 0 .. nrow-1 in order, every dof
+    return;
+  }
+  // an island: its trees' dofs, its compressed rows (islands exist only with row patterns)
+  for (int k = 0; k < set->ntree; k++) {
+    for (int j = set->tree[k]; j < w->tree_end[set->tree[k]]; j++) {
       t[j] = 0;
     }
-  } else {
-    for (int k = 0; k < set->ntree; k++) {
-      for (int j = set->tree[k]; j < w->tree_end[set->tree[k]]; j++) {
-        t[j] = 0;
-      }
-    }
   }
-  int len = w->Jnnz ? w->ncol : w->nv;
   for (int l = 0; l < set->n; l++) {
-    int i = OST_SET_ROW(set, l);
+    int i = set->row[l];
     ostNum xi = x[l];
     if (OSTU_SKIPPABLE(xi)) {
       continue;
     }
-    const ostNum* v = w->J + (size_t)i * len;
-    if (!w->Jnnz) {
-      for (int j = 0; j < w->nv; j++) t[j] += v[j] * xi;
-      continue;
-    }
-    const int* ind = w->Jind + (size_t)i * len;
+    const ostNum* v = w->J + (size_t)i * w->ncol;
+    const int* ind = w->Jind + (size_t)i * w->ncol;
     for (int k = 0; k < w->Jnnz[i]; k++) {
       t[ind[k]] += v[k] * xi;
     }

@@ -53,6 +53,33 @@ OST_HD void ostu_treeSolveLT(ostNum* x, const ostNum* L, const int* parent, int 
 }
 
 
+// x = M^-1 x in place on the dofs [r0, r1) of whole trees (no dof in it has an ancestor
+// outside it, and x is not read elsewhere) with the factor of ostu_treeFactor; n is L's size.
+// Trees are independent, so the solve of a set of trees is that of the whole matrix there.
+OST_HD void ostu_treeSolveRange(ostNum* x, const ostNum* L, const int* parent, int n, int r0,
+                                int r1) {
+  for (int i = r1 - 1; i >= r0; i--) {  // y = L^-T x: the leaves' values flow to ancestors
+    ostNum xi = x[i];
+    if (OSTU_SKIPPABLE(xi)) {
+      continue;
+    }
+    for (int j = parent[i]; j >= 0; j = parent[j]) {
+      x[j] -= L[(size_t)i * n + j] * xi;
+    }
+  }
+  for (int i = r0; i < r1; i++) {  // z = D^-1 y
+    x[i] /= L[(size_t)i * n + i];
+  }
+  for (int i = r0; i < r1; i++) {  // L x = z: each dof after its ancestors
+    ostNum s = x[i];
+    for (int j = parent[i]; j >= 0; j = parent[j]) {
+      s -= L[(size_t)i * n + j] * x[j];
+    }
+    x[i] = s;
+  }
+}
+
+
 // solve M x = b with the factor of ostu_treeFactor; x and b may alias
 OST_HD void ostu_treeSolve(ostNum* x, const ostNum* L, const int* parent, const ostNum* b,
                            int n) {
@@ -61,18 +88,7 @@ OST_HD void ostu_treeSolve(ostNum* x, const ostNum* L, const int* parent, const 
       x[i] = b[i];
     }
   }
-  ostu_treeSolveLT(x, L, parent, n);
-  for (int i = 0; i < n; i++) {
-    x[i] /= L[(size_t)i * n + i];
-  }
-  // L x = z: each dof after its ancestors
-  for (int i = 0; i < n; i++) {
-    ostNum s = x[i];
-    for (int j = parent[i]; j >= 0; j = parent[j]) {
-      s -= L[(size_t)i * n + j] * x[j];
-    }
-    x[i] = s;
-  }
+  ostu_treeSolveRange(x, L, parent, n, 0, n);
 }
 
 
