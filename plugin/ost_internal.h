@@ -13,6 +13,16 @@
 #include "ost_solver.h"
 #include "ostrich.h"
 
+// core's per-world outcome bits (core/ost_solver.h OST_STEP_*) are the public ostStatusBit values:
+// the batch hands a world's bits to the user unchanged, and a record keeps them as they are
+OST_STATIC_ASSERT(OST_STEP_NOT_CONVERGED == OST_NOT_CONVERGED, "outcome bit: not converged");
+OST_STATIC_ASSERT(OST_STEP_OVERFLOW == OST_OVERFLOW, "outcome bit: overflow");
+OST_STATIC_ASSERT(OST_STEP_NAN == OST_NAN, "outcome bit: nan");
+OST_STATIC_ASSERT(OST_STEP_CHOL_FAIL == OST_CHOL_FAIL, "outcome bit: Cholesky failure");
+OST_STATIC_ASSERT(OST_STEP_DEPENETRATED == OST_DEPENETRATED, "outcome bit: depenetrated");
+// warnings and errors do not overlap: OST_IS_WARNING tells them apart
+OST_STATIC_ASSERT(OST_ERR_NOT_CONVERGED < OST_WARN_FIRST, "error codes below the warnings");
+
 typedef struct ostRecordHead_ {   // header of one recorded substep (ost_adjoint.c)
   double h;                       // its step size (s)
   int    nrow;                    // rows of its solution
