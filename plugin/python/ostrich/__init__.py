@@ -1,0 +1,22 @@
+"""Ostrich for Python: MuJoCo 2.2.2 models stepped by Ostrich's implicit hard-contact solver,
+with zero-copy NumPy views, dm_control-style named indexing and differentiable rollouts.
+
+  import ostrich
+  physics = ostrich.Physics.from_xml_path("mjcf_models/cartpole.xml")
+  physics.named.data.qpos["hinge"] = 0.1
+  physics.step()                               # Ostrich; step(engine="mujoco") for mj_step
+  qpos, qvel = traj = ostrich.rollout(physics, actions)      # actions: T x nu
+  grads = traj.backward(cot_qpos, cot_qvel)    # .qpos, .qvel, .ctrl, .theta, .params
+
+The API is described in plugin/python/README.md.
+"""
+
+from ._lib import MUJOCO_VERSION
+from .errors import MujocoWarning, NotConvergedError, NotConvergedWarning, OstrichError
+from .physics import Physics
+from .rollout import PARAM_GROUPS, Gradients, Rollout, rollout
+
+__all__ = [
+    "Physics", "rollout", "Rollout", "Gradients", "PARAM_GROUPS", "OstrichError",
+    "NotConvergedError", "NotConvergedWarning", "MujocoWarning", "MUJOCO_VERSION",
+]

@@ -1,0 +1,158 @@
+"""Differentiable rollouts of one world: Ostrich steps recorded on a tape (ost_tape), and the
+adjoint backward pass (ost_tapeBackward) for the start state, every control and the model's
+physical parameters.
+
+Cotangents and gradients of qpos are in qpos coordinates (nq per state) by default: backward
+takes dL/dqpos as the loss sees the arrays rollout returned, and returns dL/dqpos0 in the same
+coordinates. For a ball or free joint's quaternion q, only the part of dL/dq tangent to the unit
+sphere at q matters (steps keep |q| = 1), and the returned gradient is tangent there:
+g = 4 G G^T dL/dq, where G (4 x 3) is the derivative of q along mj_integratePos's local
+rotation vector. With tangent=True both are tangent vectors instead (nv per state: ostrich.h's
+convention, as mjd_transitionFD's); for models of hinges and slides only, the two agree.
+"""
+
+import warnings
+
+import numpy as np
+
+from . import _lib
+from .errors import NotConvergedWarning, OstrichError, check, forward_mujoco_warnings
+
+_lib_ = _lib.lib
+
+# theta's groups, in ostParam order (ostrich.h), and the objects their entries belong to
+PARAM_GROUPS = ("friction", "mass", "damping", "gain", "biaspos", "biasvel")
+_PARAM_ROWS = ("ngeom", "nbody", "nv", "nu", "nu", "nu")
+
+
+class _Tape:
+  """Owns an ostpyTape."""
+
+  def __init__(self, physics, checkpoint):
+    self.physics = physics  # the tape's model lives as long as the physics
+    self.ptr = _lib_.ostpy_tapeCreate(physics._handle.ptr, int(checkpoint))
+    if not self.ptr:
+      raise OstrichError("cannot create a tape (out of memory)", 6)
+
+  def __del__(self):
+    if getattr(self, "ptr", None):
+      _lib_.ostpy_tapeFree(self.ptr)
+      self.ptr = None
+
+  def error(self):
+    return _lib.text(_lib_.ostpy_tapeError(self.ptr))
+
+
+class Gradients:
+  """What backward returns: dL/d of the start state, every control and theta.
+
+  qpos (nq; nv with tangent=True), qvel (nv), ctrl (T x nu), theta (ost_nparam: every
+  parameter in ostParam order; None without params), params (theta's groups by name: friction
+  (ngeom, geom_friction[:, 0]), mass (nbody, body_mass), damping (nv, dof_damping), gain (nu,
+  actuator_gainprm[:, 0]), biaspos (nu, actuator_biasprm[:, 1]), biasvel (nu,
+  actuator_biasprm[:, 2])), and named.<group>[name]: the same by geom, body, joint or actuator
+  name.
+  """
+
+  def __init__(self, physics, qpos, qvel, ctrl, theta):
+    self.qpos, self.qvel, self.ctrl, self.theta = qpos, qvel, ctrl, theta
+    self.params = {}
+    self.named = _NamedParams()
+    if theta is None:
+      return
+    model = physics._model_ptr()
+    for g, (group, rowdim) in enumerate(zip(PARAM_GROUPS, _PARAM_ROWS)):
+      a, b = _lib_.ost_paramAddress(model, g), _lib_.ost_paramAddress(model, g + 1)
+      self.params[group] = theta[a:b]
+      from .named import NamedArray
+      setattr(self.named, group, NamedArray(theta[a:b], physics._axis(rowdim), group))
+
+
+class _NamedParams:
+  """Gradients.named: each parameter group as a NamedArray."""
+
+
+class Rollout(tuple):
+  """(qpos, qvel) of a recorded rollout, (T + 1) x nq and (T + 1) x nv, the start state first;
+  unpacks as a pair. backward(...) runs the adjoint over it. `status` holds each step's
+  ost_step status, `converged` whether all converged."""
+
+  def __new__(cls, qpos, qvel, tape, status):
+    self = super().__new__(cls, (qpos, qvel))
+    self.qpos, self.qvel, self.status, self._tape = qpos, qvel, status, tape
+    self.converged = bool(np.all(status == _lib.OK))
+    return self
+
+  def backward(self, cot_qpos=None, cot_qvel=None, params=True, tangent=False, truncate=False):
+    """Gradients of a loss L of the rollout's states, given its cotangents.
+
+    cot_qpos: dL/dqpos of every state ((T + 1) x nq, or (T + 1) x nv tangent vectors with
+    tangent=True); cot_qvel: dL/dqvel ((T + 1) x nv); None = zero. params: also dL/dtheta
+    (Gradients.theta, .params, .named). truncate: hold each step's contact geometry fixed
+    (ostGradOptions.truncate), for long chaotic horizons. Raises NotConvergedError if a step
+    of the rollout did not converge (no gradient is returned then), OstrichError otherwise.
+    """
+    physics = self._tape.physics
+    nq, nv, nu = physics.nq, physics.nv, physics.nu
+    steps = len(self.qpos) - 1
+    gq = _rows(cot_qpos, steps + 1, nv if tangent else nq, "cot_qpos")
+    gv = _rows(cot_qvel, steps + 1, nv, "cot_qvel")
+    gctrl = np.zeros((steps, nu))
+    gq0 = np.zeros(nv if tangent else nq)
+    gv0 = np.zeros(nv)
+    theta = np.zeros(_lib_.ost_nparam(physics._model_ptr())) if params else None
+    status = _lib_.ostpy_backward(physics._handle.ptr, self._tape.ptr, int(bool(tangent)),
+                                  int(bool(params)), int(bool(truncate)), _lib.dptr(gq),
+                                  _lib.dptr(gv), _lib.dptr(gctrl), _lib.dptr(gq0),
+                                  _lib.dptr(gv0), _lib.dptr(theta))
+    forward_mujoco_warnings()
+    check(status, self._tape.error(), "backward")
+    return Gradients(physics, gq0, gv0, gctrl, theta)
+
+
+def _rows(a, rows, cols, what):
+  """a as a C-contiguous float64 (rows x cols) array; None stays None."""
+  if a is None:
+    return None
+  a = np.ascontiguousarray(a, dtype=np.float64)
+  if a.shape != (rows, cols):
+    raise ValueError(f"{what}: shape {a.shape}, expected {(rows, cols)}")
+  return a
+
+
+def rollout(physics, actions, qpos0=None, qvel0=None, checkpoint=0):
+  """Record T Ostrich steps from physics' state with controls actions (T x nu); return a Rollout
+  (unpacks as qpos (T + 1) x nq, qvel (T + 1) x nv, the start state first).
+
+  qpos0, qvel0: written into physics.data first (else its current state is the start). The
+  physics ends at the last state. checkpoint S > 0 keeps every S-th state only and recomputes
+  during backward (ost_tapeCreate). A step that does not converge warns (NotConvergedWarning;
+  the rollout goes on, backward will refuse it); a failed step raises OstrichError.
+  """
+  nq, nv, nu = physics.nq, physics.nv, physics.nu
+  actions = np.ascontiguousarray(actions, dtype=np.float64)
+  if actions.ndim == 1 and nu == 1:
+    actions = actions.reshape(-1, 1)
+  if actions.ndim != 2 or actions.shape[1] != nu:
+    raise ValueError(f"actions: shape {actions.shape}, expected (T, nu = {nu})")
+  if qpos0 is not None:
+    physics.data.qpos[:] = qpos0
+  if qvel0 is not None:
+    physics.data.qvel[:] = qvel0
+  steps = actions.shape[0]
+  tape = _Tape(physics, checkpoint)
+  qpos = np.zeros((steps + 1, nq))
+  qvel = np.zeros((steps + 1, nv))
+  status = np.zeros(steps, dtype=np.int32)
+  result = _lib_.ostpy_rollout(physics._handle.ptr, tape.ptr, steps, _lib.dptr(actions),
+                               _lib.dptr(qpos), _lib.dptr(qvel), _lib.iptr(status))
+  forward_mujoco_warnings()
+  check(result, tape.error(), "rollout")
+  out = Rollout(qpos, qvel, tape, status)
+  physics._last_rollout = out
+  if not out.converged:
+    bad = np.flatnonzero(status != _lib.OK) + 1
+    warnings.warn(NotConvergedWarning(
+        f"{len(bad)} of {steps} steps did not converge (first: step {bad[0]}); the rollout went "
+        "on, but backward will refuse it"), stacklevel=2)
+  return out
