@@ -1,11 +1,12 @@
 #!/usr/bin/env bash
-# test_install.sh BUILD_DIR SOURCE_DIR CMAKE CC: install BUILD_DIR into a temporary prefix, check
-# what was installed (library with its SOVERSION, header, preload library, program, CMake package,
-# ostrich.pc, and that libostrich.so exports the public API and nothing else), then build
-# tests/install/example.c against that prefix twice, with find_package(ostrich) and with
-# pkg-config, run both on mjcf_models/box_plane.xml and check what they print.
+# test_install.sh BUILD_DIR SOURCE_DIR CMAKE CC PYTHON: install BUILD_DIR into a temporary prefix,
+# check what was installed (library with its SOVERSION, header, preload library, program, CMake
+# package, ostrich.pc, the Python package, and that libostrich.so exports the public API and
+# nothing else), then build tests/install/example.c against that prefix twice, with
+# find_package(ostrich) and with pkg-config, run both on mjcf_models/box_plane.xml and check what
+# they print; last, import the installed Python package with PYTHON and step the same box.
 set -euo pipefail
-build=$1 src=$2 cmake=$3 cc=$4
+build=$1 src=$2 cmake=$3 cc=$4 python=${5:-}
 models=$src/mjcf_models
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
@@ -30,6 +31,10 @@ done
 [ -e "$libdir/libostrich_preload.so" ] || fail "libostrich_preload.so not installed"
 [ -e "$libdir/cmake/ostrich/ostrichConfig.cmake" ] || fail "CMake package not installed"
 [ -e "$libdir/pkgconfig/ostrich.pc" ] || fail "ostrich.pc not installed"
+pydir=$prefix/lib/python3/dist-packages
+for f in __init__.py physics.py rollout.py libostrich_python.so; do
+  [ -e "$pydir/ostrich/$f" ] || fail "Python package: ostrich/$f not installed in $pydir"
+done
 # the installed program finds the installed library (its usage exits 0 with --help)
 "$prefix/bin/ostrich" --help > /dev/null || fail "installed ostrich --help"
 
@@ -73,3 +78,20 @@ read -r status time z <<< "$(sed -E 's/^status (-?[0-9]+), time ([0-9.]+) s, box
 # box_plane.xml's cube rests on the floor at z = 0.1: hard contact holds it within 1e-4 m (in free
 # fall it would drop g t^2 / 2 = 2e-3 m in these 0.02 s)
 awk -v z="$z" 'BEGIN { exit !(z > 0.1 - 1e-4 && z < 0.1 + 1e-4) }' || fail "box height $z"
+
+# the installed Python package: it loads the installed libostrich (its rpath), not the build's,
+# and steps box_plane.xml's resting cube as the C example does
+[ -n "$python" ] || fail "no python3 with numpy given (Debian: apt-get install python3-numpy)"
+out=$(cd "$tmp" && OSTRICH_QUIET=1 PYTHONPATH=$pydir "$python" -c '
+import sys, ostrich
+physics = ostrich.Physics.from_xml_path(sys.argv[1])
+status = physics.step(10)
+maps = [l.split()[-1] for l in open("/proc/self/maps") if "libostrich.so" in l]
+print(ostrich.__file__, status, f"{physics.data.time:.3f}", f"{physics.data.qpos[2]:.6f}",
+      sorted(set(maps))[0])' "$models/box_plane.xml") || fail "python: import the installed ostrich"
+echo "python: $out"
+read -r pyfile status time z loaded <<< "$out"
+[[ $pyfile == "$pydir/ostrich/__init__.py" ]] || fail "python imported $pyfile"
+[[ $loaded == "$libdir/"* ]] || fail "python loaded $loaded, not the installed libostrich"
+[[ $status == 0 && $time == 0.020 ]] || fail "python: status $status, time $time"
+awk -v z="$z" 'BEGIN { exit !(z > 0.1 - 1e-4 && z < 0.1 + 1e-4) }' || fail "python: box height $z"

@@ -75,7 +75,7 @@ class _Struct:
     if name == "timestep":  # model.opt.timestep
       return float(self._view("opt.timestep")[0][0])
     if name == "gravity":
-      return self._view("opt.gravity")[0]
+      return self._view("opt.gravity")[0][0]
     return self._view(name)[0]
 
   def __setattr__(self, name, value):
@@ -85,7 +85,7 @@ class _Struct:
       self._view("opt.timestep")[0][0] = value
     else:
       view = self._view(name if name != "gravity" else "opt.gravity")[0]
-      view[...] = value
+      view[...] = np.reshape(value, view.shape) if name == "gravity" else value
 
   def __dir__(self):
     extra = ["time"] if self._is_data else ["timestep", "gravity"]

@@ -1,0 +1,63 @@
+"""Shared fixtures of the Python tests: the model directory and small MJCF models.
+
+ctest runs these with PYTHONPATH=BUILD/python (the build tree's package) and OSTRICH_MODEL_DIR
+= mjcf_models/; run by hand: PYTHONPATH=build/python python3 -m pytest plugin/python/tests.
+"""
+
+import os
+import warnings
+
+import pytest
+
+MODEL_DIR = os.environ.get("OSTRICH_MODEL_DIR") or os.path.join(
+    os.path.dirname(__file__), "..", "..", "..", "mjcf_models")
+
+# a sphere on a free joint, no floor: free fall
+FREE_BALL = """
+<mujoco>
+  <option timestep="0.01" gravity="0 0 -9.81"/>
+  <worldbody>
+    <body name="ball" pos="0 0 1">
+      <freejoint name="free"/>
+      <geom name="ball_geom" type="sphere" size="0.1" mass="2"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+# a 2 kg box on a frictionless slide along x pushed by a motor (gear 1), gravity along z only
+SLIDER = """
+<mujoco>
+  <option timestep="0.01" gravity="0 0 -9.81"/>
+  <worldbody>
+    <body name="box" pos="0 0 1">
+      <joint name="x" type="slide" axis="1 0 0"/>
+      <geom type="box" size="0.1 0.1 0.1" mass="2" contype="0" conaffinity="0"/>
+    </body>
+  </worldbody>
+  <actuator>
+    <motor name="push" joint="x" gear="1"/>
+  </actuator>
+  <sensor>
+    <jointpos name="x_pos" joint="x"/>
+    <framepos name="box_pos" objtype="body" objname="box"/>
+  </sensor>
+</mujoco>
+"""
+
+
+@pytest.fixture
+def model_dir():
+  return MODEL_DIR
+
+
+def model_path(name):
+  return os.path.join(MODEL_DIR, name)
+
+
+@pytest.fixture(autouse=True)
+def _warnings_are_errors():
+  """A warning a test does not expect (pytest.warns) fails it."""
+  with warnings.catch_warnings():
+    warnings.simplefilter("error")
+    yield
