@@ -25,9 +25,9 @@ class _Handle:
   def __init__(self, ptr):
     self.ptr = ptr
 
-  def __del__(self):
+  def __del__(self, free=_lib_.ostpy_free):  # bound now: module globals may be gone at exit
     if self.ptr:
-      _lib_.ostpy_free(self.ptr)
+      free(self.ptr)
       self.ptr = None
 
 

@@ -34,9 +34,9 @@ class _Tape:
     if not self.ptr:
       raise OstrichError("cannot create a tape (out of memory)", 6)
 
-  def __del__(self):
+  def __del__(self, free=_lib_.ostpy_tapeFree):  # bound now: module globals may be gone at exit
     if getattr(self, "ptr", None):
-      _lib_.ostpy_tapeFree(self.ptr)
+      free(self.ptr)
       self.ptr = None
 
   def error(self):
