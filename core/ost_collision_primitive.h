@@ -1,8 +1,9 @@
 // ost_collision_primitive.h: analytic collisions of planes, spheres, capsules, cylinders and boxes
 // with planes, and of spheres and capsules with each other.
 // Mirrors engine_collision_primitive.c of MuJoCo 2.2.2 (mjc_PlaneSphere, mjc_PlaneCapsule,
-// mjc_PlaneCylinder, mjc_PlaneBox, mjc_SphereSphere, mjc_SphereCapsule, mjc_CapsuleCapsule), with
-// the contact frame completed as MuJoCo's driver completes it (osti_makeFrame).
+// mjc_PlaneBox, mjc_SphereSphere, mjc_SphereCapsule, mjc_CapsuleCapsule), with
+// the contact frame completed as MuJoCo's driver completes it (osti_makeFrame); plane : cylinder
+// and plane : convex hull are Ostrich's own, with contact sets that move continuously.
 // Invariant: each function writes n <= OST_MAXCONPAIR contacts in con[0..n), every one with
 // dist <= margin, its normal from g1 to g2, its pos midway between the surfaces, and returns n;
 // g1 has the lower geom type (plane first), as in MuJoCo's collision table.
@@ -13,6 +14,7 @@
 
 #include "ost_geom.h"
 #include "ost_hd.h"
+#include "ost_math.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -149,82 +151,76 @@ OST_HD int osti_collidePlaneCapsule(ostContact* con, const ostGeom* g1, const os
 }
 
 
-// plane : cylinder; up to 4 points: the deepest rim point of the lower disk, the same rim point
-// of the other disk, and two points at +-120 degrees on the lower disk
+// plane : cylinder, Ostrich's own (MuJoCo 2.2.2's mjc_PlaneCylinder takes its points along the
+// tilt direction, which turns at random when the disk lies flat: a disk resting off-centre loaded
+// changed its contact points between Newton iterates and never converged). Every point here
+// moves continuously with the pose, and points appear only where they carry no force, so the
+// Newton model holds between iterates. Candidates:
+// - on each disk (centre p2 +- hl a), its lowest rim point p2 +- hl a + r v with
+//   v = w / max(|w|, sin OST_CYLPLANE_TILT), w = (n.a) a - n (the plane's downward direction
+//   without its axial part, |w| = sin tilt): the exact lowest rim point once the disk is tilted
+//   by more than OST_CYLPLANE_TILT, moving into the disk's centre as it lies flat;
+// - OST_CYLPLANE_RIM rim points of each disk at fixed angles in the geom's frame, which hold a
+//   disk lying (nearly) flat; a tilt below OST_CYLPLANE_TILT leaves the lowest rim point at most
+//   r sin(tilt) (1 - cos(pi / OST_CYLPLANE_RIM)) below them. A fixed point counts only while it
+//   is less than OST_CYLPLANE_BAND r |n.a| above the lowest candidate: all of them on a flat
+//   disk, none on a wheel rolling on its side (whose lowest points are exact), and one leaves
+//   at a positive gap, where it carries no force.
+// Every candidate within the margin (and the band) is a contact.
+#define OST_CYLPLANE_TILT 0.01  // tilt (rad) below which the lowest-point contact moves inwards
+#define OST_CYLPLANE_RIM 6      // fixed rim points per disk
+#define OST_CYLPLANE_BAND 1e-3  // fixed rim points within this fraction of r of the lowest
 OST_HD int osti_collidePlaneCylinder(ostContact* con, const ostGeom* g1, const ostGeom* g2,
                                      ostNum margin) {
-  ostNum n[3], a[3], w[3], pos[3];
+  ostNum n[3], a[3], x[3], y[3];
   ostNum radius = g2->size[0], half = g2->size[1];
   osti_primAxis(n, g1->mat, 2);
+  osti_primAxis(x, g2->mat, 0);
+  osti_primAxis(y, g2->mat, 1);
   osti_primAxis(a, g2->mat, 2);
-
-  // orient the axis a towards the plane: s = n.a <= 0
-  ostNum s = osti_primDot(n, a);
-  if (s > 0) {
-    a[0] = -a[0]; a[1] = -a[1]; a[2] = -a[2];
-    s = -s;
-  }
-
-  // height of the center over the plane
   ostNum dif[3] = {g2->pos[0] - g1->pos[0], g2->pos[1] - g1->pos[1], g2->pos[2] - g1->pos[2]};
-  ostNum d0 = osti_primDot(dif, n);
+  ostNum d0 = osti_primDot(dif, n);  // height of the centre over the plane
+  ostNum s = osti_primDot(n, a);     // cos tilt
 
-  // rim direction w = radius (s a - n)/|s a - n|: -n without its axial part; a disk parallel to
-  // the plane takes the cylinder's x axis instead
-  osti_primAxpy(w, n, -s, a);
-  w[0] = -w[0]; w[1] = -w[1]; w[2] = -w[2];
-  ostNum len = sqrt(osti_primDot(w, w));
-  if (len >= OST_MINVAL) {
-    ostNum scl = radius / len;
-    w[0] *= scl; w[1] *= scl; w[2] *= scl;
-  } else {
-    osti_primAxis(w, g2->mat, 0);
-    w[0] *= radius; w[1] *= radius; w[2] *= radius;
+  // v: the lowest rim direction, shortened below the tilt threshold (|v| <= 1)
+  ostNum v[3];
+  osti_primAxpy(v, n, -s, a);
+  ostNum sint = sqrt(osti_primDot(v, v));
+  ostNum scl = -1 / (sint > sin(OST_CYLPLANE_TILT) ? sint : sin(OST_CYLPLANE_TILT));
+  v[0] *= scl; v[1] *= scl; v[2] *= scl;
+
+  // candidates: disk +1 then -1; on each the lowest point (k = -1), then the fixed angles
+  ostNum cand[2 * (OST_CYLPLANE_RIM + 1)][4];  // rim point relative to p2, and its distance
+  ostNum lowest = HUGE_VAL;
+  int nc = 0;
+  for (int side = 1; side >= -1; side -= 2) {
+    for (int k = -1; k < OST_CYLPLANE_RIM; k++, nc++) {
+      ostNum* r = cand[nc];
+      if (k < 0) {
+        for (int i = 0; i < 3; i++) r[i] = radius * v[i];
+      } else {
+        ostNum ang = 2 * OST_PI * k / OST_CYLPLANE_RIM;
+        ostNum cs = radius * cos(ang), sn = radius * sin(ang);
+        for (int i = 0; i < 3; i++) r[i] = cs * x[i] + sn * y[i];
+      }
+      osti_primAxpy(r, r, side * half, a);
+      r[3] = d0 + osti_primDot(r, n);
+      lowest = r[3] < lowest ? r[3] : lowest;
+    }
   }
-  ostNum wn = osti_primDot(w, n);
-
-  // half axis: a *= half, s *= half
-  a[0] *= half; a[1] *= half; a[2] *= half;
-  s *= half;
-
-  // deepest point p2 + w + a: none of the others can be closer
-  ostNum dist = d0 + s + wn;
-  if (dist > margin) {
-    return 0;
-  }
-  osti_primAxpy(pos, g2->pos, 1, w);
-  osti_primAxpy(pos, pos, 1, a);
-  osti_primAxpy(pos, pos, -dist*0.5, n);
-  osti_primSetContact(con, dist, pos, n, 0);
-  int cnt = 1;
-
-  // same rim point on the far disk: p2 + w - a
-  dist = d0 - s + wn;
-  if (dist <= margin) {
-    osti_primAxpy(pos, g2->pos, 1, w);
-    osti_primAxpy(pos, pos, -1, a);
-    osti_primAxpy(pos, pos, -dist*0.5, n);
+  ostNum band = OST_CYLPLANE_BAND * radius * fabs(s);
+  int cnt = 0;
+  for (int i = 0; i < nc; i++) {
+    ostNum dist = cand[i][3];
+    int fixed = i % (OST_CYLPLANE_RIM + 1) != 0;
+    if (dist > margin || (fixed && !(dist < lowest + band))) {
+      continue;
+    }
+    ostNum pos[3];
+    osti_primAxpy(pos, g2->pos, 1, cand[i]);
+    osti_primAxpy(pos, pos, -dist * 0.5, n);
     osti_primSetContact(con + cnt, dist, pos, n, 0);
     cnt++;
-  }
-
-  // the two rim points at +-120 degrees of w on the near disk: p2 + a - w/2 +- side,
-  // side = (w x a)/|w x a| radius sqrt(3)/2; both lie at height d0 + s - wn/2
-  dist = d0 + s - wn*0.5;
-  if (dist <= margin) {
-    ostNum side[3];
-    osti_primCross(side, w, a);
-    osti_primNormalize(side);
-    ostNum scl = radius * (ostNum)sqrt(3.0) / 2;
-    side[0] *= scl; side[1] *= scl; side[2] *= scl;
-    for (int k = 1; k >= -1; k -= 2) {
-      osti_primAxpy(pos, g2->pos, k, side);
-      osti_primAxpy(pos, pos, 1, a);
-      osti_primAxpy(pos, pos, -0.5, w);
-      osti_primAxpy(pos, pos, -dist*0.5, n);
-      osti_primSetContact(con + cnt, dist, pos, n, 0);
-      cnt++;
-    }
   }
   return cnt;
 }

@@ -223,6 +223,9 @@ int ost_collideCorePair(const mjModel* m, const mjData* d, const ostNum* hfield_
     const int* graph = m->mesh_graph + m->mesh_graphadr[id];
     return osti_collidePlaneHull(con, &a, &b, vert, graph + 2 + graph[0], graph[0], margin);
   }
+  if (a.type == mjGEOM_PLANE && b.type == mjGEOM_CYLINDER) {
+    return osti_collidePlaneCylinder(con, &a, &b, margin);
+  }
   // bounding spheres apart, as MuJoCo's broadphase
   mjtNum dx[3] = {a.pos[0] - b.pos[0], a.pos[1] - b.pos[1], a.pos[2] - b.pos[2]};
   mjtNum reach = a.rbound + b.rbound + margin;
@@ -307,7 +310,7 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
 
   // contact rows: normal then two tangents in the contact frame (frame[0:3] from geom1 to
   // geom2, so J_n u > 0 separates); contacts within the look-ahead distance are candidates.
-  // Core pairs (cylinder-box, height field-cylinder) are replaced by core's contacts (below)
+  // Core pairs (cylinder-box, height field-cylinder, plane-mesh, plane-cylinder) are replaced by core's contacts (below)
   int status;
   for (int i = 0; i < d->ncon; i++) {
     const mjContact* con = d->contact + i;

@@ -344,7 +344,6 @@ static void checkPair(int t1, int t2, int ncase) {
 
 #define NCASE 20000
 
-START_TEST(test_plane_cylinder) { checkPair(mjGEOM_PLANE, mjGEOM_CYLINDER, NCASE); } END_TEST
 START_TEST(test_plane_box) { checkPair(mjGEOM_PLANE, mjGEOM_BOX, NCASE); } END_TEST
 START_TEST(test_plane_sphere) { checkPair(mjGEOM_PLANE, mjGEOM_SPHERE, NCASE); } END_TEST
 START_TEST(test_plane_capsule) { checkPair(mjGEOM_PLANE, mjGEOM_CAPSULE, NCASE); } END_TEST
@@ -475,6 +474,147 @@ START_TEST(test_cylinder_box) {
 END_TEST
 
 
+//---------------------------------- plane : cylinder (Ostrich's own) -----------------------------
+
+// a cylinder (radius r, half length hl) at height z over the plane z = 0, its axis tilted by
+// tilt about the horizontal direction (cos az, sin az, 0), then turned by spin about its axis
+static int cylPlane(ostContact* con, double r, double hl, double z, double tilt, double az,
+                    double spin, double margin) {
+  ostGeom plane, cyl;
+  memset(&plane, 0, sizeof(plane));
+  memset(&cyl, 0, sizeof(cyl));
+  plane.type = OST_GEOM_PLANE;
+  plane.mat[0] = plane.mat[4] = plane.mat[8] = 1;
+  cyl.type = OST_GEOM_CYLINDER;
+  cyl.size[0] = r;
+  cyl.size[1] = hl;
+  cyl.pos[2] = z;
+  double qs[4], qt[4], q[4], z3[3] = {0, 0, 1}, h3[3] = {cos(az), sin(az), 0};
+  mju_axisAngle2Quat(qs, z3, spin);
+  mju_axisAngle2Quat(qt, h3, tilt);
+  mju_mulQuat(q, qt, qs);
+  double mat[9];
+  mju_quat2Mat(mat, q);
+  for (int i = 0; i < 9; i++) cyl.mat[i] = mat[i];
+  return osti_collidePlaneCylinder(con, &plane, &cyl, margin);
+}
+
+
+// the lowest height of the solid cylinder: centre - hl |cos tilt| - r |sin tilt|
+static double cylLowest(double r, double hl, double z, double tilt) {
+  return z - hl * fabs(cos(tilt)) - r * fabs(sin(tilt));
+}
+
+
+// tilted by more than OST_CYLPLANE_TILT, the deepest contact is the solid's lowest point, for
+// random sizes, heights and poses (a wheel on its side included); every contact point lies on
+// the cylinder's rim, with the plane's normal, within the margin
+START_TEST(test_plane_cylinder) {
+  ostContact con[OST_MAXCONPAIR];
+  for (int c = 0; c < 20000; c++) {
+    double r = urange(0.01, 0.5), hl = urange(0.005, 0.5), margin = urange(0, 0.02);
+    double tilt = urange(OST_CYLPLANE_TILT * 1.01, mjPI - OST_CYLPLANE_TILT * 1.01);
+    if (c % 10 == 0) tilt = 0.5 * mjPI;  // a wheel on its side
+    double az = urange(-mjPI, mjPI), spin = urange(-mjPI, mjPI);
+    double low = -urange(-margin, 0.01), z = low - cylLowest(r, hl, 0, tilt);
+    int n = cylPlane(con, r, hl, z, tilt, az, spin, margin);
+    ck_assert_int_ge(n, low <= margin ? 1 : 0);
+    ck_assert_int_le(n, 2 + 2 * OST_CYLPLANE_RIM);
+    double deepest = HUGE_VAL;
+    for (int i = 0; i < n; i++) {
+      deepest = fmin(deepest, con[i].dist);
+      ck_assert_double_le(con[i].dist, margin);
+      ck_assert_double_eq_tol(con[i].frame[2], 1, 1e-15);
+      // the surface point pos + dist/2 n: on a rim (axial offset hl, radial offset r)
+      double p[3] = {con[i].pos[0], con[i].pos[1], con[i].pos[2] + con[i].dist * 0.5 - z};
+      // the axis R e_z
+      double a[3] = {sin(az) * sin(tilt), -cos(az) * sin(tilt), cos(tilt)};
+      double along = p[0] * a[0] + p[1] * a[1] + p[2] * a[2];
+      double rad2 = p[0] * p[0] + p[1] * p[1] + p[2] * p[2] - along * along;
+      ck_assert_double_eq_tol(fabs(along), hl, 1e-12);
+      ck_assert_double_eq_tol(sqrt(fmax(rad2, 0)), r, 1e-12);
+    }
+    if (n > 0) {
+      ck_assert_double_eq_tol(deepest, low, 1e-12);
+    }
+  }
+}
+END_TEST
+
+
+// a disk lying (nearly) flat: 1 mm deep it touches at the fixed rim points and its centre;
+// tilted below OST_CYLPLANE_TILT the deepest contact is above the solid's lowest point by at
+// most r sin(tilt) (1 - cos(pi / OST_CYLPLANE_RIM)); and tilting through flat (where the
+// direction of the lowest rim point turns over) moves every contact continuously, so a Newton
+// iterate near rest sees the same contact set as its neighbour
+START_TEST(test_plane_cylinder_flat) {
+  ostContact con[OST_MAXCONPAIR], prev[OST_MAXCONPAIR];
+  const double r = 0.045, hl = 0.0026;
+
+  // flat, 1 mm deep: the lower disk's rim points and its centre; of the upper disk (5.2 mm
+  // higher) only the centre, within a 1 cm margin (its rim points are out of the band)
+  int n = cylPlane(con, r, hl, hl - 0.001, 0, 0, 0.3, 0);
+  ck_assert_int_eq(n, OST_CYLPLANE_RIM + 1);
+  for (int i = 0; i < n; i++) ck_assert_double_eq_tol(con[i].dist, -0.001, 1e-15);
+  ck_assert_int_eq(cylPlane(con, r, hl, hl - 0.001, 0, 0, 0.3, 0.01), OST_CYLPLANE_RIM + 2);
+
+  // a wheel on its side, at any spin: the two lowest points only, as MuJoCo's
+  for (int k = 0; k < 100; k++) {
+    n = cylPlane(con, 0.35, 0.05, 0.35 - 0.003, 0.5 * mjPI, 0.3, k * 0.0628, 0.01);
+    ck_assert_int_eq(n, 2);
+    ck_assert_double_eq_tol(con[0].dist, -0.003, 1e-15);
+    ck_assert_double_eq_tol(con[1].dist, -0.003, 1e-15);
+  }
+
+  // below the threshold: the deepest contact within the stated bound of the solid's lowest point
+  double bound_scale = 1 - cos(mjPI / OST_CYLPLANE_RIM);
+  for (int c = 0; c < 5000; c++) {
+    double tilt = urange(0, OST_CYLPLANE_TILT), az = urange(-mjPI, mjPI);
+    double spin = urange(-mjPI, mjPI), z = 0.02;
+    n = cylPlane(con, r, hl, z, tilt, az, spin, 1);
+    double deepest = HUGE_VAL;
+    for (int i = 0; i < n; i++) deepest = fmin(deepest, con[i].dist);
+    double low = cylLowest(r, hl, z, tilt);
+    ck_assert_double_ge(deepest, low - 1e-15);
+    ck_assert_double_le(deepest, low + r * sin(tilt) * bound_scale + 1e-15);
+  }
+
+  // through flat along random directions, within 1e-4 rad (where no rim point leaves the
+  // band): same count, each contact moving at most (r / sin OST_CYLPLANE_TILT + r + hl) per
+  // radian of tilt; over +-0.02 rad the deepest distance is Lipschitz (2 r + hl: the inward-moving point sinks at
+  // up to 2 r per radian)
+  for (int c = 0; c < 50; c++) {
+    double az = urange(-mjPI, mjPI), spin = urange(-mjPI, mjPI), step = 1e-6;
+    double lip = r / sin(OST_CYLPLANE_TILT) + r + hl;
+    int np = 0;
+    for (int k = -100; k <= 100; k++) {
+      n = cylPlane(con, r, hl, hl - 0.001, k * step, az, spin, 0.002);
+      if (k > -100) {
+        ck_assert_int_eq(n, np);
+        for (int i = 0; i < n; i++) {
+          double dp = 0;
+          for (int j = 0; j < 3; j++) dp = fmax(dp, fabs(con[i].pos[j] - prev[i].pos[j]));
+          ck_assert_msg(dp <= lip * step * 1.001, "contact %d jumps by %g at tilt %g", i, dp,
+                        k * step);
+          ck_assert_double_le(fabs(con[i].dist - prev[i].dist), (r + hl) * step * 1.001);
+        }
+      }
+      memcpy(prev, con, sizeof(con));
+      np = n;
+    }
+    double prev_low = 0;
+    for (int k = -2000; k <= 2000; k++) {
+      n = cylPlane(con, r, hl, hl - 0.001, k * 1e-5, az, spin, 0.01);
+      double low = HUGE_VAL;
+      for (int i = 0; i < n; i++) low = fmin(low, con[i].dist);
+      if (k > -2000) ck_assert_double_le(fabs(low - prev_low), (2 * r + hl) * 1e-5 * 1.001);
+      prev_low = low;
+    }
+  }
+}
+END_TEST
+
+
 // osti_makeFrame against the frames of mj_forward for tilted planes under a sphere (no hint)
 // and under a capsule (the axis as hint), including normals near the y axis
 START_TEST(test_make_frame) {
@@ -557,6 +697,7 @@ int main(void) {
   tcase_add_test(tc, test_make_frame);
   tcase_add_test(tc, test_dispatch);
   tcase_add_test(tc, test_plane_cylinder);
+  tcase_add_test(tc, test_plane_cylinder_flat);
   tcase_add_test(tc, test_plane_box);
   tcase_add_test(tc, test_plane_sphere);
   tcase_add_test(tc, test_plane_capsule);
