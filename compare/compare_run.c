@@ -233,9 +233,9 @@ int cmp_readCommands(const char* path, int nu, cmpCommands* c) {
 
 
 int cmp_writeCommands(const char* path, const cmpCommands* c, const char* const* names) {
-  FILE* f = fopen(path, "w");
+  char tmp[CLI_PATH_SZ];
+  FILE* f = cli_openOutput(path, tmp, sizeof(tmp));
   if (!f) {
-    cli_error("cannot write '%s': %s", path, strerror(errno));
     return 1;
   }
   fprintf(f, "time");
@@ -251,11 +251,7 @@ int cmp_writeCommands(const char* path, const cmpCommands* c, const char* const*
     }
     fputc('\n', f);
   }
-  if (ferror(f) | fclose(f)) {
-    cli_error("error writing '%s'", path);
-    return 1;
-  }
-  return 0;
+  return cli_commitOutput(f, tmp, path);
 }
 
 
@@ -542,9 +538,9 @@ int cmp_tableTrajectory(const char* path, const cmpTable* t, int kind, int nq, d
 
 
 int cmp_writeTrajectory(const char* path, const cmpTrajectory* tr) {
-  FILE* f = fopen(path, "w");
+  char tmp[CLI_PATH_SZ];
+  FILE* f = cli_openOutput(path, tmp, sizeof(tmp));
   if (!f) {
-    cli_error("cannot write '%s': %s", path, strerror(errno));
     return 1;
   }
   if (tr->kind == CMP_POSE) {
@@ -565,11 +561,7 @@ int cmp_writeTrajectory(const char* path, const cmpTrajectory* tr) {
     }
     fputc('\n', f);
   }
-  if (ferror(f) | fclose(f)) {
-    cli_error("error writing '%s'", path);
-    return 1;
-  }
-  return 0;
+  return cli_commitOutput(f, tmp, path);
 }
 
 
@@ -708,29 +700,8 @@ int cmp_run(mjModel* m, const cmpRunSpec* spec, cmpTrajectory* tr, cmpRunResult*
 
 int cmp_parseArgs(const char* command, int argc, char** argv, const cliOption* options,
                   int noption, void* args, const char** positional, int npos, int* help) {
-  char** rest = malloc(sizeof(char*) * (size_t)(argc + 1));
-  if (!rest) {
-    cli_error("out of memory");
-    return 1;
-  }
-
-  // take out the first npos - 1 positional arguments; an option's value is not one
-  int nrest = 0, taken = 0;
-  for (int i = 0; i < argc; i++) {
-    const char* arg = argv[i];
-    const cliOption* o = arg[0] == '-' ? cli_findOption(options, noption, arg) : NULL;
-    if (o && o->kind != CLI_ARG_FLAG && i + 1 < argc) {
-      rest[nrest++] = argv[i++];
-    } else if ((arg[0] != '-' || !arg[1]) && taken < npos - 1) {
-      positional[taken++] = arg;
-      continue;
-    }
-    rest[nrest++] = argv[i];
-  }
-  int status = cli_parseArgs(command, nrest, rest, options, noption, args,
-                             positional + npos - 1, help);
-  free(rest);
-  return status;
+  return cli_parseArgsList(command, argc, argv, options, noption, args, positional, npos, NULL,
+                           help);
 }
 
 
@@ -782,7 +753,7 @@ int cmp_parsePositiveList(const char* option, const char* s, double* values, int
 int cmp_parseEngines(const char* s, int* use) {
   char buf[256];
   const char* items[8];
-  int n = cmp_splitList("--engines", s, buf, sizeof(buf), items, 8);
+  int n = cmp_splitList("--engine", s, buf, sizeof(buf), items, 8);
   if (n < 0) {
     return 1;
   }
@@ -797,7 +768,7 @@ int cmp_parseEngines(const char* s, int* use) {
       }
     }
     if (!found) {
-      cli_error("--engines: '%s' is not ostrich or mujoco", items[i]);
+      cli_error("--engine: '%s' is not ostrich or mujoco", items[i]);
       return 1;
     }
   }

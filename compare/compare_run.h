@@ -68,7 +68,8 @@ int cmp_commandsFromTable(const cmpTable* t, int first, int nu, cmpCommands* c);
 // print why (also when the column count is not 1 + nu).
 int cmp_readCommands(const char* path, int nu, cmpCommands* c);
 
-// Write commands as CSV with the given nu column names; return 0 on success.
+// Write commands as CSV with the given nu column names (atomically: cli_openOutput); return 0 on
+// success.
 int cmp_writeCommands(const char* path, const cmpCommands* c, const char* const* names);
 
 // The controls in force at time t (zero-order hold), into ctrl (nu).
@@ -153,8 +154,8 @@ double cmp_trajectoryError(const cmpTrajectory* a, const cmpTrajectory* ref, dou
 int cmp_tableTrajectory(const char* path, const cmpTable* t, int kind, int nq, double t_shift,
                         cmpTrajectory* tr);
 
-// Write a trajectory as CSV: time,x,y,z,yaw (yaw wrapped to (-pi, pi]) or time,qpos_0,..;
-// return 0 on success.
+// Write a trajectory as CSV: time,x,y,z,yaw (yaw wrapped to (-pi, pi]) or time,qpos_0,..,
+// atomically (cli_openOutput); return 0 on success.
 int cmp_writeTrajectory(const char* path, const cmpTrajectory* tr);
 
 // Free the arrays.
@@ -215,8 +216,8 @@ int cmp_run(mjModel* m, const cmpRunSpec* spec, cmpTrajectory* tr, cmpRunResult*
 
 //---------------------------------- Arguments -----------------------------------------------------
 
-// cli_parseArgs for commands with npos positional arguments: the first npos - 1 are taken out
-// here, the last is left to cli_parseArgs. Missing ones stay NULL. Return 0 on success.
+// cli_parseArgsList for commands with up to npos positional arguments, stored in order; missing
+// ones stay NULL. Return 0 on success.
 int cmp_parseArgs(const char* command, int argc, char** argv, const cliOption* options,
                   int noption, void* args, const char** positional, int npos, int* help);
 

@@ -1,6 +1,7 @@
 // ost_cli_util.c: helpers shared by the subcommands of the `ostrich` tool (see ost_cli_util.h):
-// messages, MuJoCo's error handlers, parsing, the option table, JSON, the clock, the random
-// stream, model loading, Ostrich's option set-up and acceptance test, and the start state.
+// messages, MuJoCo's error handlers, parsing, the option table and its deprecated spellings, the
+// output files (checked first, written atomically), JSON, the clock, the random stream, model
+// loading, Ostrich's option set-up and acceptance test, and the start state.
 //
 // Invariant: nothing here writes to stdout or exits; a rejected input gives one "ostrich:" line
 // on stderr and a nonzero return.
@@ -9,11 +10,14 @@
 #include "ost_cli_util.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <time.h>
+#include <unistd.h>
 
 #include "ostrich.h"
 
@@ -188,48 +192,196 @@ int cli_storeOption(const cliOption* o, const char* text, void* args) {
 }
 
 
-int cli_parseArgs(const char* command, int argc, char** argv, const cliOption* options,
-                  int noption, void* args, const char** positional, int* help) {
+//---------------------------------- Deprecated spellings ------------------------------------------
+
+// the previous release's spellings; empty again in the next release
+static const cliAlias kAliases[] = {
+  {"--engines", "--engine"},      // compare sweep, replay, identify, hard
+  {"--repeats", "--repeat"},      // compare sweep
+  {"--out", "--csv"},             // sim's trajectory, compare identify's table: one CSV file
+  {"--model", NULL},              // synth, bench scale, compare gen-logs: the model is positional
+};
+
+static const int kNumAliases = (int)(sizeof(kAliases) / sizeof(kAliases[0]));
+
+
+const cliAlias* cli_findAlias(const cliOption* options, int noption, int takes_positional,
+                              const char* name) {
+  for (int i = 0; i < kNumAliases; i++) {
+    const cliAlias* a = kAliases + i;
+    if (strcmp(a->old, name)) {
+      continue;
+    }
+    if (a->now ? cli_findOption(options, noption, a->now) != NULL : takes_positional) {
+      return a;
+    }
+  }
+  return NULL;
+}
+
+
+//---------------------------------- Argument parsing ----------------------------------------------
+
+// Store positional argument arg; return 0, else print why.
+static int cli_storePositional(const char* command, const char* arg, const char** positional,
+                               int cap, int* n) {
+  if (*n < cap) {
+    positional[(*n)++] = arg;
+    return 0;
+  }
+  if (cap == 0) {
+    cli_error("%s: unexpected argument '%s' (see ostrich %s --help)", command, arg, command);
+  } else if (cap == 1) {
+    cli_error("%s: unexpected argument '%s' (the model is '%s')", command, arg, positional[0]);
+  } else {
+    cli_error("%s: unexpected argument '%s' (at most %d; see ostrich %s --help)", command, arg,
+              cap, command);
+  }
+  return 1;
+}
+
+
+int cli_parseArgsList(const char* command, int argc, char** argv, const cliOption* options,
+                      int noption, void* args, const char** positional, int cap, int* npos,
+                      int* help) {
+  int n = 0;
   for (int i = 0; i < argc; i++) {
     const char* arg = argv[i];
     if (!strcmp(arg, "--help") || !strcmp(arg, "-h")) {
       *help = 1;
-      return 0;
+      break;
     }
 
-    // the positional argument ("-" alone is one too)
+    // a positional argument ("-" alone is one too)
     if (arg[0] != '-' || !arg[1]) {
-      if (!positional) {
-        cli_error("%s: unexpected argument '%s' (see ostrich %s --help)", command, arg, command);
+      if (cli_storePositional(command, arg, positional, cap, &n)) {
         return 1;
       }
-      if (*positional) {
-        cli_error("%s: unexpected argument '%s' (the model is '%s')", command, arg, *positional);
-        return 1;
-      }
-      *positional = arg;
       continue;
     }
 
-    // an option and its value
+    // an option, possibly in a deprecated spelling, and its value
     const cliOption* o = cli_findOption(options, noption, arg);
-    if (!o) {
+    const cliAlias* alias = o ? NULL : cli_findAlias(options, noption, cap > 0, arg);
+    if (!o && !alias) {
       cli_error("%s: unknown option '%s' (see ostrich %s --help)", command, arg, command);
       return 1;
     }
-    if (o->kind == CLI_ARG_FLAG) {
+    if (alias) {
+      cli_error("%s: '%s' is deprecated and will be removed in the next release; use '%s'",
+                command, alias->old, alias->now ? alias->now : "MODEL.xml (positional)");
+      o = alias->now ? cli_findOption(options, noption, alias->now) : NULL;
+    }
+    if (o && o->kind == CLI_ARG_FLAG) {
       cli_storeOption(o, NULL, args);
       continue;
     }
     if (i + 1 >= argc) {
-      cli_error("%s: missing value (%s)", arg, o->metavar);
+      cli_error("%s: missing value (%s)", arg, o ? o->metavar : "MODEL.xml");
       return 1;
     }
-    if (cli_storeOption(o, argv[++i], args)) {
+    i++;
+    if (o ? cli_storeOption(o, argv[i], args)
+          : cli_storePositional(command, argv[i], positional, cap, &n)) {
       return 1;
     }
   }
+  if (npos) {
+    *npos = n;
+  }
   return 0;
+}
+
+
+int cli_parseArgs(const char* command, int argc, char** argv, const cliOption* options,
+                  int noption, void* args, const char** positional, int* help) {
+  return cli_parseArgsList(command, argc, argv, options, noption, args, positional,
+                           positional ? 1 : 0, NULL, help);
+}
+
+
+//---------------------------------- Output files --------------------------------------------------
+
+int cli_checkOutput(const char* option, const char* path) {
+  struct stat st;
+  if (!path[0] || (!stat(path, &st) && S_ISDIR(st.st_mode))) {
+    cli_error("%s: '%s' is %s", option, path, path[0] ? "a directory" : "empty");
+    return 1;
+  }
+  // the final write is a rename of a new file next to path: try one now
+  char tmp[CLI_PATH_SZ];
+  if (cli_outputTemp(path, tmp, sizeof(tmp))) {
+    return 1;
+  }
+  int fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL, 0644);
+  if (fd < 0) {
+    cli_error("%s: cannot write '%s': %s", option, path, strerror(errno));
+    return 1;
+  }
+  close(fd);
+  remove(tmp);
+  return 0;
+}
+
+
+int cli_checkOutputDir(const char* option, const char* dir) {
+  struct stat st;
+  if (!dir[0] || (mkdir(dir, 0755) && errno != EEXIST)) {
+    cli_error("%s: cannot create directory '%s': %s", option, dir,
+              dir[0] ? strerror(errno) : "empty name");
+    return 1;
+  }
+  if (stat(dir, &st) || !S_ISDIR(st.st_mode)) {
+    cli_error("%s: '%s' is not a directory", option, dir);
+    return 1;
+  }
+  char probe[CLI_PATH_SZ];
+  if (snprintf(probe, sizeof(probe), "%s/.ostrich", dir) >= (int)sizeof(probe)) {
+    cli_error("%s: path too long: '%s'", option, dir);
+    return 1;
+  }
+  return cli_checkOutput(option, probe);
+}
+
+
+int cli_outputTemp(const char* path, char* tmp, int tmp_sz) {
+  if (snprintf(tmp, (size_t)tmp_sz, "%s.tmp%ld", path, (long)getpid()) >= tmp_sz) {
+    cli_error("path too long: '%s'", path);
+    return 1;
+  }
+  return 0;
+}
+
+
+FILE* cli_openOutput(const char* path, char* tmp, int tmp_sz) {
+  if (cli_outputTemp(path, tmp, tmp_sz)) {
+    return NULL;
+  }
+  FILE* f = fopen(tmp, "w");
+  if (!f) {
+    cli_error("cannot write '%s': %s", path, strerror(errno));
+  }
+  return f;
+}
+
+
+int cli_commitOutput(FILE* f, const char* tmp, const char* path) {
+  // no fsync: the rename protects against a killed process, which is what this is for
+  int bad = f && (ferror(f) | fclose(f));
+  if (bad || rename(tmp, path)) {
+    cli_error("cannot write '%s': %s", path, bad ? "write error" : strerror(errno));
+    remove(tmp);
+    return 1;
+  }
+  return 0;
+}
+
+
+void cli_discardOutput(FILE* f, const char* tmp) {
+  if (f) {
+    fclose(f);
+  }
+  remove(tmp);
 }
 
 

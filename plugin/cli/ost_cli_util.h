@@ -1,6 +1,7 @@
 // ost_cli_util.h: helpers shared by the subcommands of the `ostrich` command-line tool
 // (ost_cli.c dispatches; ost_cli_synth.c, ost_cli_gradcheck.c): messages and MuJoCo's error
-// handlers, number and option-table parsing, JSON printing, the clock, a seeded random stream,
+// handlers, number and option-table parsing (with the deprecated spellings), output files
+// (checked before work, written atomically), JSON printing, the clock, a seeded random stream,
 // model loading, Ostrich's option set-up and acceptance test, and the start state (--key).
 // Mirrors the shared part of MuJoCo's sample programs.
 //
@@ -28,6 +29,7 @@ enum {
 };
 
 #define CLI_MSG_SZ 1024           // size of message buffers
+#define CLI_PATH_SZ 4096          // size of path buffers
 
 
 //---------------------------------- Subcommands ---------------------------------------------------
@@ -114,11 +116,67 @@ const cliOption* cli_findOption(const cliOption* options, int noption, const cha
 // Store the value text of option o into the argument struct args; return 0 on success.
 int cli_storeOption(const cliOption* o, const char* text, void* args);
 
-// Parse the arguments of `ostrich COMMAND` against an option table into args. positional
-// receives the one positional argument (the model path); NULL: the command takes none. On -h
-// or --help, set *help and stop. Return 0 on success, else print why and return 1.
+// Parse the arguments of `ostrich COMMAND` against an option table into args. Options and
+// positional arguments come in any order; positional receives the positional arguments in order
+// (at most cap; cap 0: the command takes none) and *npos their count (npos may be NULL). On -h
+// or --help, set *help and stop. A deprecated spelling (cli_findAlias) is accepted with a note on
+// stderr. Return 0 on success, else print why and return 1.
+int cli_parseArgsList(const char* command, int argc, char** argv, const cliOption* options,
+                      int noption, void* args, const char** positional, int cap, int* npos,
+                      int* help);
+
+// cli_parseArgsList for commands with at most one positional argument (the model path), stored
+// in *positional; positional NULL: the command takes none.
 int cli_parseArgs(const char* command, int argc, char** argv, const cliOption* options,
                   int noption, void* args, const char** positional, int* help);
+
+
+//---------------------------------- Deprecated spellings ------------------------------------------
+// One table of the spellings that the previous release accepted. An option that a command's table
+// does not have is looked up here; if its new spelling is in that table (or, for "--model FILE",
+// the command takes a positional model), the option is taken as the new spelling and a note
+// "ostrich: COMMAND: 'OLD' is deprecated and will be removed in the next release; use 'NEW'" goes
+// to stderr. The table is empty again in the next release.
+
+typedef struct cliAlias_ {        // a deprecated spelling
+  const char* old;                // as the previous release spelled it
+  const char* now;                // the canonical option; NULL: the positional model argument
+} cliAlias;
+
+// The alias of a deprecated option name for a command with this option table, NULL if none.
+// takes_positional: the command takes a positional argument.
+const cliAlias* cli_findAlias(const cliOption* options, int noption, int takes_positional,
+                              const char* name);
+
+
+//---------------------------------- Output files --------------------------------------------------
+// Every file a subcommand writes is checked before any work (cli_checkOutput, cli_checkOutputDir)
+// and written atomically: into "PATH.tmp<pid>" next to it, then renamed over PATH
+// (cli_commitOutput). A killed run leaves the previous PATH whole (and at most a stale .tmp file).
+
+// Check before any work that the file path can be written: it is not a directory and a new file
+// can be created next to it (one is created with O_EXCL and removed). Return 0, else print why
+// (naming option and path) and return 1.
+int cli_checkOutput(const char* option, const char* path);
+
+// Check before any work that the directory dir can receive outputs: create it if missing (its
+// parent must exist), then create and remove a file in it. Return 0, else print why and return 1.
+int cli_checkOutputDir(const char* option, const char* dir);
+
+// The temporary name of output path ("PATH.tmp<pid>") into tmp (tmp_sz bytes); return 0, or 1 if
+// it does not fit (message printed). For files another program writes (gnuplot's PNG).
+int cli_outputTemp(const char* path, char* tmp, int tmp_sz);
+
+// Open the temporary file of output path for writing; its name goes to tmp (tmp_sz bytes).
+// Return the stream, or NULL after printing why.
+FILE* cli_openOutput(const char* path, char* tmp, int tmp_sz);
+
+// Close f (NULL: tmp was written by another program) and rename tmp over path. Return 0, else
+// print why, remove tmp and return 1; path is then untouched.
+int cli_commitOutput(FILE* f, const char* tmp, const char* path);
+
+// Close f (if not NULL) and remove tmp: the output is abandoned and path is untouched.
+void cli_discardOutput(FILE* f, const char* tmp);
 
 
 //---------------------------------- JSON and time -------------------------------------------------
