@@ -1,9 +1,10 @@
 // bench_geometry.c: native against mujoco geometry provider, time per Newton iterate, measured in
-// the same run (issue 3). For each scene it steps two copies of the same state with Ostrich,
+// the same run. For each scene it steps two copies of the same state with Ostrich,
 // one per provider, and divides the wall time of the steps by the geometry evaluations (Newton
 // iterates and line-search trials), so the figure is what one iterate costs a user.
 // Prints a table and one JSON line per scene; exits non-zero if a step fails. The mesh terrain
-// runs natively only (MuJoCo 2.2.2 collides a mesh as its convex hull): its mujoco column is nan.
+// runs natively only (MuJoCo 2.2.2 collides a mesh as its convex hull): its mujoco column is nan
+// in the table and null in the JSON line.
 //   usage: bench_geometry [MODEL_DIR] [--steps N]
 #define _POSIX_C_SOURCE 200809L
 #include <math.h>
@@ -12,6 +13,7 @@
 #include <string.h>
 #include <time.h>
 
+#include "ost_cli_util.h"
 #include "ostrich.h"
 
 static double now(void) {
@@ -103,9 +105,16 @@ int main(int argc, char** argv) {
     double mm = MED3(tm), mn = MED3(tn);
     printf("%-20s %6.3f %12.1f %12.1f %12ld %12ld %8.2f\n", scenes[s].file, scenes[s].h, mm, mn,
            em, en, mm / mn);
-    printf("{\"scene\": \"%s\", \"h\": %g, \"steps\": %d, \"mujoco_us_per_iterate\": %.2f, "
-           "\"native_us_per_iterate\": %.2f, \"mujoco_iterates\": %ld, \"native_iterates\": %ld, "
-           "\"speedup\": %.3f}\n", scenes[s].file, scenes[s].h, nstep, mm, mn, em, en, mm / mn);
+    // JSON: a time that was not measured (the mesh terrain under MuJoCo) is null, not nan
+    printf("{\"scene\": ");
+    cli_jsonString(stdout, scenes[s].file);
+    printf(", \"h\": %g, \"steps\": %d, \"mujoco_us_per_iterate\": ", scenes[s].h, nstep);
+    cli_jsonNumber(stdout, mm);
+    printf(", \"native_us_per_iterate\": ");
+    cli_jsonNumber(stdout, mn);
+    printf(", \"mujoco_iterates\": %ld, \"native_iterates\": %ld, \"speedup\": ", em, en);
+    cli_jsonNumber(stdout, mm / mn);
+    printf("}\n");
     mj_deleteModel(m);
   }
   return fail;
