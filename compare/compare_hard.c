@@ -46,7 +46,7 @@
 typedef struct hardArgs_ {        // arguments of `ostrich compare hard`
   const char* h_grid;             // comma list of step sizes (s)
   const char* cases;              // comma list of case names; NULL: all
-  const char* engines;            // comma list of ostrich, mujoco
+  const char* engine;             // comma list of ostrich, mujoco
   const char* csv;                // CSV path; NULL: none
   double      duration_scale;     // multiplies every case's duration
   const char* models;             // directory of the mjcf_models files
@@ -59,10 +59,11 @@ static const cliOption kHardOptions[] = {
    "step sizes (s), at most 16 (default 0.001,0.01,0.05,0.1)"},
   {"--cases", CLI_ARG_STRING, offsetof(hardArgs, cases), "NAME,...",
    "cases to run (default all; the names are listed below)"},
-  {"--engines", CLI_ARG_STRING, offsetof(hardArgs, engines), "E,...",
+  {"--engine", CLI_ARG_STRING, offsetof(hardArgs, engine), "ostrich,mujoco",
    "ostrich and/or mujoco (default ostrich,mujoco)"},
-  {"--csv", CLI_ARG_STRING, offsetof(hardArgs, csv), "FILE",
-   "write one row per case, h and engine"},
+  {"--csv", CLI_ARG_STRING, offsetof(hardArgs, csv), "FILE.csv",
+   "write one row per case, h and engine (checked before the runs,\n"
+   "written to a temporary name, then renamed)"},
   {"--duration-scale", CLI_ARG_POSITIVE, offsetof(hardArgs, duration_scale), "X",
    "multiply every case's simulated time by X (default 1)"},
   {"--models", CLI_ARG_STRING, offsetof(hardArgs, models), "DIR",
@@ -176,7 +177,7 @@ static int hard_parseCases(const char* text, hardPlan* plan) {
 }
 
 
-// Parse --engines into plan->ostrich; return 0, else print why.
+// Parse --engine into plan->ostrich; return 0, else print why.
 static int hard_parseEngines(const char* text, hardPlan* plan) {
   char item[64];
   const char* s = text;
@@ -185,7 +186,7 @@ static int hard_parseEngines(const char* text, hardPlan* plan) {
     int ostrich = !strcmp(item, "ostrich");
     if ((!ostrich && strcmp(item, "mujoco")) || plan->nengine == 2 ||
         (plan->nengine == 1 && plan->ostrich[0] == ostrich)) {
-      cli_error("--engines: '%s' is not one of ostrich, mujoco (each once)", item);
+      cli_error("--engine: '%s' is not one of ostrich, mujoco (each once)", item);
       return 1;
     }
     plan->ostrich[plan->nengine++] = ostrich;
@@ -522,9 +523,9 @@ static void hard_csvNumber(FILE* f, double x) {
 
 // Write the CSV file; return 0, else print why.
 static int hard_writeCsv(const char* path, const hardRun* runs, int nrun) {
-  FILE* f = fopen(path, "w");
+  char tmp[CLI_PATH_SZ];
+  FILE* f = cli_openOutput(path, tmp, sizeof(tmp));
   if (!f) {
-    cli_error("cannot write '%s': %s", path, strerror(errno));
     return 1;
   }
   fprintf(f, "case,engine,h,status,steps,wall_s,max_penetration,energy_gain,metric_name,metric,"
@@ -547,11 +548,7 @@ static int hard_writeCsv(const char* path, const hardRun* runs, int nrun) {
     hard_csvNumber(f, r->ostrich ? r->unconverged : NAN);
     fprintf(f, ",%d,%d,\"%s\"\n", r->expected, !r->failed, failed);
   }
-  if (ferror(f) | fclose(f)) {
-    cli_error("error writing '%s'", path);
-    return 1;
-  }
-  return 0;
+  return cli_commitOutput(f, tmp, path);
 }
 
 
@@ -638,7 +635,7 @@ static int hard_loadCase(const hardCase* c, const hardArgs* a, mjModel** m) {
 
 // `ostrich compare hard [options]`
 int compare_hard_main(int argc, char** argv) {
-  hardArgs a = {.h_grid = "0.001,0.01,0.05,0.1", .engines = "ostrich,mujoco",
+  hardArgs a = {.h_grid = "0.001,0.01,0.05,0.1", .engine = "ostrich,mujoco",
                 .duration_scale = 1, .models = "mjcf_models", .humanoid = HARD_DEFAULT_HUMANOID};
   hardPlan plan;
   if (cli_parseArgs("compare hard", argc, argv, kHardOptions, kHardNumOptions, &a, NULL,
@@ -650,7 +647,7 @@ int compare_hard_main(int argc, char** argv) {
     return CLI_OK;
   }
   if (hard_parseGrid(a.h_grid, &plan) || hard_parseCases(a.cases, &plan) ||
-      hard_parseEngines(a.engines, &plan)) {
+      hard_parseEngines(a.engine, &plan) || (a.csv && cli_checkOutput("--csv", a.csv))) {
     return CLI_USAGE;
   }
 

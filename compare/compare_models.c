@@ -119,29 +119,8 @@ static int models_parse(int argc, char** argv, modelsArgs* a, const char** posit
                         int* npos) {
   *a = (modelsArgs){.engines = "ostrich,mujoco", .scales = "1,2,5,10", .ctrl = "zero,random",
                     .duration = 1.0, .max_wall = 60, .seed = 1, .key = -1};
-  char** rest = malloc(sizeof(char*) * (size_t)(argc + 1));
-  if (!rest) {
-    cli_error("out of memory");
-    return 1;
-  }
-  int nrest = 0;
-  *npos = 0;
-  for (int i = 0; i < argc; i++) {
-    const cliOption* o = argv[i][0] == '-' ? cli_findOption(kModelsOptions, kModelsNumOptions,
-                                                           argv[i]) : NULL;
-    if (o && o->kind != CLI_ARG_FLAG && i + 1 < argc) {
-      rest[nrest++] = argv[i++];
-      rest[nrest++] = argv[i];
-    } else if (argv[i][0] == '-' && argv[i][1]) {
-      rest[nrest++] = argv[i];
-    } else {
-      positional[(*npos)++] = argv[i];
-    }
-  }
-  int status = cli_parseArgs("compare models", nrest, rest, kModelsOptions, kModelsNumOptions,
-                             a, NULL, &a->help);
-  free(rest);
-  return status;
+  return cli_parseArgsList("compare models", argc, argv, kModelsOptions, kModelsNumOptions, a,
+                           positional, argc, npos, &a->help);
 }
 
 
@@ -166,8 +145,8 @@ static int models_setup(const modelsArgs* a, int npos, modelsState* s) {
       return 1;
     }
   }
-  if (n < 0 || (a->csv && models_checkOutput("--csv", a->csv)) ||
-      (a->plot && models_checkOutput("--plot", a->plot))) {
+  if (n < 0 || (a->csv && cli_checkOutput("--csv", a->csv)) ||
+      (a->plot && cli_checkOutput("--plot", a->plot))) {
     return 1;
   }
   s->duration = a->duration;

@@ -77,10 +77,6 @@ modelsRow* models_addRow(modelsState* s);
 // of refusals, one per line, stays a list), trailing spaces and separators dropped.
 void models_setText(char* field, int sz, const char* text);
 
-// Check that path can be written (its directory exists and takes a new file, path is not a
-// directory) before any work; return 0 if so, else print why.
-int models_checkOutput(const char* option, const char* path);
-
 // Run compare/mujoco3_models.py on s->jobs_dir and append its rows; a missing python3 or mujoco
 // package is a note, not an error.
 void models_runMujoco3(modelsState* s);

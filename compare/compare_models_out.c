@@ -1,7 +1,8 @@
 // compare_models_out.c: the outputs of `ostrich compare models` (compare_models.c runs): the
-// table and the summary on stdout, the CSV (written to a temporary file and renamed, so a killed
-// run leaves the previous file whole), the gnuplot panels, and the rows of MuJoCo 3 from
-// compare/mujoco3_models.py, read back from the CSV it writes in the same columns.
+// table and the summary on stdout, the CSV (written to a temporary file and renamed by
+// cli_commitOutput, so a killed run leaves the previous file whole), the gnuplot panels, and the
+// rows of MuJoCo 3 from compare/mujoco3_models.py, read back from the CSV it writes in the same
+// columns.
 #define _POSIX_C_SOURCE 200809L
 
 #include <errno.h>
@@ -59,26 +60,6 @@ void models_setText(char* field, int sz, const char* text) {
 }
 
 
-int models_checkOutput(const char* option, const char* path) {
-  struct stat st;
-  if (!stat(path, &st) && S_ISDIR(st.st_mode)) {
-    cli_error("%s: '%s' is a directory", option, path);
-    return 1;
-  }
-  // a new file next to it must be possible: the final write is a rename of one
-  char tmp[MODELS_PATH_SZ];
-  snprintf(tmp, sizeof(tmp), "%s.tmp%ld", path, (long)getpid());
-  int fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL, 0644);
-  if (fd < 0) {
-    cli_error("%s: cannot write next to '%s': %s", option, path, strerror(errno));
-    return 1;
-  }
-  close(fd);
-  remove(tmp);
-  return 0;
-}
-
-
 // Attempted and converged steps of an Ostrich row (a diverged or failed run's last step counts).
 static void models_counts(const modelsRow* r, double* attempted, double* converged) {
   *attempted = (double)r->steps + (strcmp(r->status, "diverged") && strcmp(r->status, "failed")
@@ -111,11 +92,9 @@ static void models_quoted(FILE* f, const char* s) {
 
 
 int models_writeCsv(const modelsState* s) {
-  char tmp[MODELS_PATH_SZ];
-  snprintf(tmp, sizeof(tmp), "%s.tmp%ld", s->csv, (long)getpid());
-  FILE* f = fopen(tmp, "w");
+  char tmp[CLI_PATH_SZ];
+  FILE* f = cli_openOutput(s->csv, tmp, sizeof(tmp));
   if (!f) {
-    cli_error("cannot write '%s': %s", tmp, strerror(errno));
     return 1;
   }
   fprintf(f, "%s\n", MODELS_CSV_HEADER);
@@ -152,12 +131,7 @@ int models_writeCsv(const modelsState* s) {
     models_quoted(f, r->reason);
     fputc('\n', f);
   }
-  if (ferror(f) | fclose(f) || rename(tmp, s->csv)) {
-    cli_error("error writing '%s': %s", s->csv, strerror(errno));
-    remove(tmp);
-    return 1;
-  }
-  return 0;
+  return cli_commitOutput(f, tmp, s->csv);
 }
 
 
@@ -498,6 +472,7 @@ void models_printSummary(const modelsState* s) {
 
 int models_writePlot(const modelsState* s) {
   char dat[MODELS_PATH_SZ + 8], gp[MODELS_PATH_SZ + 8], log[MODELS_PATH_SZ + 8];
+  char tmp[CLI_PATH_SZ], png_tmp[CLI_PATH_SZ];
   snprintf(dat, sizeof(dat), "%s.dat", s->plot);
   snprintf(gp, sizeof(gp), "%s.gp", s->plot);
   snprintf(log, sizeof(log), "%s.log", s->plot);
@@ -511,9 +486,8 @@ int models_writePlot(const modelsState* s) {
   const char* engine[5];
   const char* model[1024];
   int nengine = 0, nmodel = 0;
-  FILE* f = fopen(dat, "w");
+  FILE* f = cli_openOutput(dat, tmp, sizeof(tmp));
   if (!f) {
-    cli_error("cannot write '%s': %s", dat, strerror(errno));
     return 1;
   }
   for (int i = 0; i < s->nrow; i++) {
@@ -537,24 +511,24 @@ int models_writePlot(const modelsState* s) {
     nmodel += m == nmodel;
     fprintf(f, "%d %d %.6g %.6g %g\n", m, e, r->error, r->wall_per_sim, r->h_scale);
   }
-  if (ferror(f) | fclose(f)) {
-    cli_error("error writing '%s'", dat);
+  if (cli_commitOutput(f, tmp, dat)) {
     return 1;
   }
 
   // one panel per model, points coloured by engine and labelled with the h-scale
   int cols = (int)ceil(sqrt((double)(nmodel ? nmodel : 1)));
   int rows = (nmodel + cols - 1) / cols;
-  if (!(f = fopen(gp, "w"))) {
-    cli_error("cannot write '%s': %s", gp, strerror(errno));
+  if (!(f = cli_openOutput(gp, tmp, sizeof(tmp)))) {
     return 1;
   }
+  // the PNG's name is a gnuplot variable: this run draws into its temporary name
   fprintf(f, "# written by `ostrich compare models`; rerun with: gnuplot %s\n"
-          "set terminal pngcairo size %d,%d font 'Sans,9'\nset output '%s'\n"
+          "if (!exists('out')) out = '%s'\n"
+          "set terminal pngcairo size %d,%d font 'Sans,9'\nset output out\n"
           "set logscale xy\nset grid\nset format x '%%.0e'\nset format y '%%.0e'\n"
           "set key top left font ',7'\nset xlabel 'error against MuJoCo at h/4'\n"
-          "set ylabel 'wall s per simulated s'\nset multiplot layout %d,%d\n", gp,
-          380 * cols, 300 * (rows ? rows : 1), s->plot, rows ? rows : 1, cols);
+          "set ylabel 'wall s per simulated s'\nset multiplot layout %d,%d\n", gp, s->plot,
+          380 * cols, 300 * (rows ? rows : 1), rows ? rows : 1, cols);
   for (int m = 0; m < nmodel; m++) {
     fprintf(f, "set title '");
     for (const char* c = model[m]; *c; c++) {
@@ -570,16 +544,21 @@ int models_writePlot(const modelsState* s) {
     fprintf(f, "\n");
   }
   fprintf(f, "unset multiplot\n");
-  if (ferror(f) | fclose(f)) {
-    cli_error("error writing '%s'", gp);
+  if (cli_commitOutput(f, tmp, gp)) {
     return 1;
   }
   if (!nmodel) {
     cli_error("note: plot skipped: no run has a finite error and wall time");
     return 0;
   }
-  char* argv[] = {"gnuplot", gp, NULL};
+  char vars[CLI_PATH_SZ + 16];
+  cli_outputTemp(s->plot, png_tmp, sizeof(png_tmp));
+  snprintf(vars, sizeof(vars), "out = '%s'", png_tmp);
+  char* argv[] = {"gnuplot", "-e", vars, gp, NULL};
   int status = cmp_spawn(argv, log, log);
+  if (status) {
+    cli_discardOutput(NULL, png_tmp);
+  }
   if (status == 127) {
     cli_error("note: plot skipped: gnuplot not found (install gnuplot-nox); script in %s", gp);
     return 0;
@@ -588,5 +567,5 @@ int models_writePlot(const modelsState* s) {
     cli_error("plot failed: gnuplot exit %d, see %s", status, log);
     return 1;
   }
-  return 0;
+  return cli_commitOutput(NULL, png_tmp, s->plot);
 }

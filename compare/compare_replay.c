@@ -19,7 +19,6 @@
 #include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 
 #include "compare.h"
 #include "compare_run.h"
@@ -217,20 +216,21 @@ static double replay_runLog(mjModel* m, const replayLog* log, int engine, double
 typedef struct replayArgs_ {      // arguments of replay, identify and gen-logs
   const char* log;                // replay: LOG.csv
   const char* model;              // MJCF path
-  const char* engines;            // comma list of engines
+  const char* engine;             // comma list of engines
   double      h[CMP_NENGINE];     // step per engine (s)
   double      param[NPARAM];      // replay: parameters (0: the model's)
   const char* train;              // identify: training logs
   const char* test;               // identify: held-out logs
   const char* grid[NPARAM];       // identify: grid per parameter
-  const char* out;                // identify: CSV; gen-logs: directory
+  const char* out;                // replay, gen-logs: output directory
+  const char* csv;                // identify: CSV of every error
   long        seed;               // gen-logs: noise seed
   long        nlog;               // gen-logs: logs to write (the first N)
   int         help;               // --help was given
 } replayArgs;
 
 #define REPLAY_ENGINE_OPTIONS \
-  {"--engines", CLI_ARG_STRING, offsetof(replayArgs, engines), "ostrich,mujoco", \
+  {"--engine", CLI_ARG_STRING, offsetof(replayArgs, engine), "ostrich,mujoco", \
    "engines (default both)"}, \
   {"--h-ostrich", CLI_ARG_POSITIVE, offsetof(replayArgs, h) + sizeof(double) * CMP_OSTRICH, \
    "SEC", "Ostrich's step (default 0.05)"}, \
@@ -245,8 +245,9 @@ static const cliOption kReplayOptions[] = {
    "MU", "sliding friction of every geom (default: the model's)"},
   {"--solref", CLI_ARG_POSITIVE, offsetof(replayArgs, param) + sizeof(double) * PARAM_SOLREF,
    "SEC", "solref time constant of every geom (default: the model's)"},
-  {"--out", CLI_ARG_STRING, offsetof(replayArgs, out), "PREFIX",
-   "write each replayed trajectory to PREFIX_<engine>.csv (time,x,y,z,yaw)"},
+  {"--out", CLI_ARG_STRING, offsetof(replayArgs, out), "DIR",
+   "write each replayed trajectory to DIR/replay_<engine>.csv\n"
+   "(time,x,y,z,yaw); DIR is created if missing"},
 };
 
 static const cliOption kIdentifyOptions[] = {
@@ -261,16 +262,15 @@ static const cliOption kIdentifyOptions[] = {
    "M1,M2,...", "friction, both engines (default 0.7,0.8,0.9,1.0)"},
   {"--solref-grid", CLI_ARG_STRING, offsetof(replayArgs, grid) + sizeof(char*) * PARAM_SOLREF,
    "T1,T2,...", "MuJoCo's solref time constants (default 0.005,0.01,0.02,0.04)"},
-  {"--out", CLI_ARG_STRING, offsetof(replayArgs, out), "FILE.csv",
-   "every error, one row per engine, grid point and log (default identify.csv)"},
+  {"--csv", CLI_ARG_STRING, offsetof(replayArgs, csv), "FILE.csv",
+   "every error, one row per engine, grid point and log (default\n"
+   "identify.csv; checked before the runs, written at the end)"},
 };
 
 static const cliOption kGenlogsOptions[] = {
   {"--out", CLI_ARG_STRING, offsetof(replayArgs, out), "DIR",
    "output directory, created if missing (required)"},
   {"--seed", CLI_ARG_COUNT, offsetof(replayArgs, seed), "S", "noise seed (default 1)"},
-  {"--model", CLI_ARG_STRING, offsetof(replayArgs, model), "MODEL.xml",
-   "the scene (default mjcf_models/robot_pallet.xml)"},
   {"--logs", CLI_ARG_COUNT, offsetof(replayArgs, nlog), "N",
    "write only the first N of the 14 logs (default 14)"},
 };
@@ -280,7 +280,7 @@ static const cliOption kGenlogsOptions[] = {
 
 // Defaults shared by the three subcommands.
 static replayArgs replay_defaultArgs(void) {
-  replayArgs a = {.engines = "ostrich,mujoco", .out = NULL, .seed = 1, .nlog = 14};
+  replayArgs a = {.engine = "ostrich,mujoco", .out = NULL, .seed = 1, .nlog = 14};
   a.h[CMP_OSTRICH] = 0.05;
   a.h[CMP_MUJOCO] = 0.002;
   return a;
@@ -341,7 +341,7 @@ int compare_replay_main(int argc, char** argv) {
     cli_error("compare replay: expected LOG.csv MODEL.xml (see ostrich compare replay --help)");
     return CLI_USAGE;
   }
-  if (cmp_parseEngines(a.engines, use)) {
+  if (cmp_parseEngines(a.engine, use) || (a.out && cli_checkOutputDir("--out", a.out))) {
     return CLI_USAGE;
   }
 
@@ -372,7 +372,7 @@ int compare_replay_main(int argc, char** argv) {
       }
       cmpRunResult res;
       char traj[4096];
-      snprintf(traj, sizeof(traj), "%s_%s.csv", a.out ? a.out : "", kCmpEngineNames[e]);
+      snprintf(traj, sizeof(traj), "%s/replay_%s.csv", a.out ? a.out : "", kCmpEngineNames[e]);
       double error = replay_runLog(m, &log, e, a.h[e], &res, a.out ? traj : NULL);
       if (res.outcome != CMP_COMPLETED || isnan(error)) {
         cli_error("replay: %s: %s", kCmpEngineNames[e], res.why[0] ? res.why : "out of memory");
@@ -425,7 +425,8 @@ typedef struct identifyState_ {   // the whole identification
   int        ntrain, ntest;       // logs
   double     grid[NPARAM][REPLAY_MAX_GRID];  // values per parameter
   int        ngrid[NPARAM];       // sizes
-  FILE*      csv;                 // every error
+  FILE*      csv;                 // every error (its temporary file until committed)
+  char       csv_tmp[CLI_PATH_SZ];  // name of that temporary file
 } identifyState;
 
 
@@ -610,8 +611,7 @@ static int identify_setup(const replayArgs* a, identifyState* s, char* buf, int 
   if (s->ntest < 0) {
     return 1;
   }
-  if (!(s->csv = fopen(a->out, "w"))) {
-    cli_error("cannot write '%s': %s", a->out, strerror(errno));
+  if (!(s->csv = cli_openOutput(a->csv, s->csv_tmp, sizeof(s->csv_tmp)))) {
     return 1;
   }
   fprintf(s->csv, "engine,h,kv,friction,solref,split,log,error,outcome\n");
@@ -637,7 +637,7 @@ static void identify_free(identifyState* s) {
 // `ostrich compare identify --train LOG,... --test LOG,... MODEL.xml [options]`
 int compare_identify_main(int argc, char** argv) {
   replayArgs a = replay_defaultArgs();
-  a.out = "identify.csv";
+  a.csv = "identify.csv";
   int use[CMP_NENGINE];
   if (cli_parseArgs("compare identify", argc, argv, kIdentifyOptions,
                     REPLAY_NUM(kIdentifyOptions), &a, &a.model, &a.help)) {
@@ -651,7 +651,7 @@ int compare_identify_main(int argc, char** argv) {
     cli_error("compare identify: expected --train, --test and MODEL.xml (see --help)");
     return CLI_USAGE;
   }
-  if (cmp_parseEngines(a.engines, use)) {
+  if (cmp_parseEngines(a.engine, use) || cli_checkOutput("--csv", a.csv)) {
     return CLI_USAGE;
   }
 
@@ -688,13 +688,14 @@ int compare_identify_main(int argc, char** argv) {
     }
     identify_reportCommon(&s, fits);
     printf(",\"csv\":");
-    cli_jsonString(stdout, a.out);
+    cli_jsonString(stdout, a.csv);
     printf(",\"wall_s\":%.3f}\n", cli_now() - start);
     fflush(stdout);
   }
-  if (s.csv && (ferror(s.csv) | fclose(s.csv))) {
-    cli_error("error writing '%s'", a.out);
-    status = status == CLI_OK ? CLI_FAIL : status;
+  if (s.csv && status == CLI_OK) {
+    status = cli_commitOutput(s.csv, s.csv_tmp, a.csv) ? CLI_FAIL : CLI_OK;
+  } else if (s.csv) {
+    cli_discardOutput(s.csv, s.csv_tmp);
   }
   identify_free(&s);
   return status;
@@ -736,9 +737,9 @@ static double genlog_gauss(cliRng* rng) {
 // Write one log: the commands, and the reference's pose at their times plus noise.
 static int genlog_write(const char* path, const char* label, const cmpCommands* c,
                         const cmpTrajectory* tr, long seed, cliRng* rng) {
-  FILE* f = fopen(path, "w");
+  char tmp[CLI_PATH_SZ];
+  FILE* f = cli_openOutput(path, tmp, sizeof(tmp));
   if (!f) {
-    cli_error("cannot write '%s': %s", path, strerror(errno));
     return 1;
   }
   fprintf(f,
@@ -765,11 +766,7 @@ static int genlog_write(const char* path, const char* label, const cmpCommands* 
     fprintf(f, "%.2f,%.6g,%.6g,%.6g,%.4f,%.4f,%.4f,%.4f\n", c->time[i], u[0], u[1], u[2],
             pose[0], pose[1], pose[2], pose[3]);
   }
-  if (ferror(f) | fclose(f)) {
-    cli_error("error writing '%s'", path);
-    return 1;
-  }
-  return 0;
+  return cli_commitOutput(f, tmp, path);
 }
 
 
@@ -828,7 +825,7 @@ static int genlog_one(mjModel* m, int k, const char* dir, FILE* index, long seed
 // Print the usage of `ostrich compare gen-logs`.
 static void genlogs_usage(FILE* f) {
   fprintf(f,
-    "usage: ostrich compare gen-logs --out DIR [options]\n"
+    "usage: ostrich compare gen-logs --out DIR [MODEL.xml] [options]\n"
     "\n"
     "Write 14 SYNTHETIC logs of the robot traversing the pallet (speeds 0.12 to 2.05 m/s,\n"
     "heading changes up to 130 deg after the pallet), in the log format of `ostrich compare\n"
@@ -836,6 +833,8 @@ static void genlogs_usage(FILE* f) {
     "at h = 0.5 ms with \"true\" parameters (kv 270, friction 0.85 on every geom) plus\n"
     "Gaussian noise (0.01 m, 0.01 rad). Also writes DIR/index.csv (file, split, speed, turn)\n"
     "and DIR/pallet_commands.csv (the default traversal, as compare/pallet_commands.csv).\n"
+    "MODEL.xml is the robot scene (default mjcf_models/robot_pallet.xml). DIR is checked\n"
+    "before the reference runs; each file is written to a temporary name, then renamed.\n"
     "\n"
     "options:\n");
   cli_printOptions(f, kGenlogsOptions, REPLAY_NUM(kGenlogsOptions));
@@ -843,12 +842,12 @@ static void genlogs_usage(FILE* f) {
 }
 
 
-// `ostrich compare gen-logs --out DIR [--seed S] [--model MODEL.xml] [--logs N]`
+// `ostrich compare gen-logs --out DIR [MODEL.xml] [--seed S] [--logs N]`
 int compare_genlogs_main(int argc, char** argv) {
   replayArgs a = replay_defaultArgs();
-  a.model = "mjcf_models/robot_pallet.xml";
+  const char* model = NULL;
   if (cli_parseArgs("compare gen-logs", argc, argv, kGenlogsOptions,
-                    REPLAY_NUM(kGenlogsOptions), &a, NULL, &a.help)) {
+                    REPLAY_NUM(kGenlogsOptions), &a, &model, &a.help)) {
     return CLI_USAGE;
   }
   if (a.help) {
@@ -857,6 +856,10 @@ int compare_genlogs_main(int argc, char** argv) {
   }
   if (!a.out) {
     cli_error("compare gen-logs: missing --out DIR (see ostrich compare gen-logs --help)");
+    return CLI_USAGE;
+  }
+  a.model = model ? model : "mjcf_models/robot_pallet.xml";
+  if (cli_checkOutputDir("--out", a.out)) {
     return CLI_USAGE;
   }
 
@@ -870,19 +873,15 @@ int compare_genlogs_main(int argc, char** argv) {
       cli_error("gen-logs: '%s' is not the robot (free base, actuators v_left, v_right, "
                 "v_rear)", a.model);
       status = CLI_USAGE;
-    } else if (mkdir(a.out, 0755) && errno != EEXIST) {
-      cli_error("cannot create '%s': %s", a.out, strerror(errno));
-      status = CLI_USAGE;
     }
   }
-  char path[4096];
+  char path[4096], index_path[4096], index_tmp[CLI_PATH_SZ];
   FILE* index = NULL;
   if (status == CLI_OK) {
     double p[NPARAM] = {GENLOG_KV, GENLOG_MU, NAN};
     replay_applyParams(m, base, p);
-    snprintf(path, sizeof(path), "%s/index.csv", a.out);
-    if (!(index = fopen(path, "w"))) {
-      cli_error("cannot write '%s': %s", path, strerror(errno));
+    snprintf(index_path, sizeof(index_path), "%s/index.csv", a.out);
+    if (!(index = cli_openOutput(index_path, index_tmp, sizeof(index_tmp)))) {
       status = CLI_USAGE;
     }
   }
@@ -905,9 +904,10 @@ int compare_genlogs_main(int argc, char** argv) {
   for (int k = 0; k < nlog && status == CLI_OK; k++) {
     status = genlog_one(m, k, a.out, index, a.seed, &rng, &ntrain, &ntest);
   }
-  if (index && (ferror(index) | fclose(index))) {
-    cli_error("error writing '%s/index.csv'", a.out);
-    status = status == CLI_OK ? CLI_FAIL : status;
+  if (index && status == CLI_OK) {
+    status = cli_commitOutput(index, index_tmp, index_path) ? CLI_FAIL : CLI_OK;
+  } else if (index) {
+    cli_discardOutput(index, index_tmp);
   }
   if (status == CLI_OK) {
     printf("{\"out\":");

@@ -29,12 +29,12 @@ typedef struct sweepArgs_ {       // arguments of `ostrich compare sweep`
   const char* model;              // MJCF path (positional)
   const char* ctrl_file;          // command CSV; NULL: built-in traversal (robot) or zeros
   const char* h_grid;             // comma list of step sizes (s)
-  const char* engines;            // comma list of engines
+  const char* engine;             // comma list of engines
   const char* reference;          // trajectory CSV; NULL: stock MuJoCo at h_ref
   double      h_ref;              // step of the reference run; 0: the grid's smallest h / 2
   double      duration;           // simulated seconds; 0: from the commands or reference
   double      ceiling;            // error (m or rad) above which a run counts as diverged
-  long        repeats;            // runs per engine and h, the commands perturbed by 1e-9
+  long        repeat;             // runs per engine and h, the commands perturbed by 1e-9
   const char* out;                // output directory
   long        key;                // start from this keyframe; -1: qpos0 at rest
   int         help;               // --help was given
@@ -50,10 +50,10 @@ static const cliOption kSweepOptions[] = {
    "traversal of compare/pallet_commands.csv, other models all zeros"},
   {"--h-grid", CLI_ARG_STRING, offsetof(sweepArgs, h_grid), "H1,H2,...",
    "step sizes (s) (default 0.0005,0.001,0.002,0.005,0.01,0.02,0.05,0.1,0.2)"},
-  {"--engines", CLI_ARG_STRING, offsetof(sweepArgs, engines), "ostrich,mujoco",
+  {"--engine", CLI_ARG_STRING, offsetof(sweepArgs, engine), "ostrich,mujoco",
    "engines to sweep (default both)"},
   {"--reference", CLI_ARG_STRING, offsetof(sweepArgs, reference), "FILE.csv",
-   "reference trajectory: a log (time,...,x,y,z,yaw) or `ostrich sim --out`\n"
+   "reference trajectory: a log (time,...,x,y,z,yaw) or `ostrich sim --csv`\n"
    "CSV. Default: stock MuJoCo at --h-ref on the same commands"},
   {"--h-ref", CLI_ARG_POSITIVE, offsetof(sweepArgs, h_ref), "SEC",
    "step of the reference MuJoCo run (default: the grid's smallest h / 2)"},
@@ -62,13 +62,14 @@ static const cliOption kSweepOptions[] = {
    "file's last time, else 5 s)"},
   {"--ceiling", CLI_ARG_POSITIVE, offsetof(sweepArgs, ceiling), "ERR",
    "error above which a run counts as diverged (default 0.5)"},
-  {"--repeats", CLI_ARG_COUNT, offsetof(sweepArgs, repeats), "N",
+  {"--repeat", CLI_ARG_COUNT, offsetof(sweepArgs, repeat), "N",
    "repeat the sweep N times (default 5); repeat r > 0 multiplies every\n"
    "command by 1 + 1e-9 u, u uniform in [-1, 1] (and, without --reference,\n"
    "runs its own reference); errors are averaged (contact at the pallet's\n"
    "edge is chaotic)"},
   {"--out", CLI_ARG_STRING, offsetof(sweepArgs, out), "DIR",
-   "output directory, created if missing (default ./sweep)"},
+   "output directory, created if missing (default ./sweep); checked\n"
+   "before the runs; each file written to a temporary name, then renamed"},
 };
 
 static const int kSweepNumOptions = (int)(sizeof(kSweepOptions) / sizeof(kSweepOptions[0]));
@@ -83,7 +84,7 @@ static void sweep_usage(FILE* f) {
     "initial state. Each run's error against the reference: for a free-floating base\n"
     "sqrt(<|dp|^2> + (0.5 m * RMS(dyaw))^2) over samples every 10 ms (p the base position,\n"
     "yaw wrapped to (-pi, pi]); otherwise the RMS of |dqpos|. A run diverged if its state\n"
-    "became non-finite, a step failed, or its error is above --ceiling. With --repeats N,\n"
+    "became non-finite, a step failed, or its error is above --ceiling. With --repeat N,\n"
     "each (engine, h) runs N times on perturbed commands, the error is the mean over the\n"
     "repeats and the run diverged if any repeat did.\n"
     "An engine's plateau is the longest run of consecutive grid steps that holds the step of\n"
@@ -388,9 +389,9 @@ static void sweep_plateau(sweepState* s, int e, sweepPlateau* p) {
 // Write DIR/sweep.csv; return 0 on success.
 static int sweep_writeCsv(sweepState* s, const char* dir) {
   snprintf(s->csv_path, sizeof(s->csv_path), "%s/sweep.csv", dir);
-  FILE* f = fopen(s->csv_path, "w");
+  char tmp[SWEEP_PATH_SZ + 32];
+  FILE* f = cli_openOutput(s->csv_path, tmp, sizeof(tmp));
   if (!f) {
-    cli_error("cannot write '%s': %s", s->csv_path, strerror(errno));
     return 1;
   }
   fprintf(f, "engine,h,steps,simulated_s,wall_s,wall_per_sim_s,error,diverged,outcome,"
@@ -407,19 +408,17 @@ static int sweep_writeCsv(sweepState* s, const char* dir) {
             outcome, r->iter, r->max_penetration, sweep_within(r, p->min_error), r->in_plateau,
             r->nrepeat, r->ndiverged, r->error_min, r->error_max);
   }
-  if (ferror(f) | fclose(f)) {
-    cli_error("error writing '%s'", s->csv_path);
-    return 1;
-  }
-  return 0;
+  return cli_commitOutput(f, tmp, s->csv_path);
 }
 
 
-// Write the gnuplot script of one plot into f; x is the CSV column of the abscissa.
-static void sweep_writePlot(FILE* f, const sweepState* s, const char* dir, const char* png,
+// Write the gnuplot script of one plot into f, drawn into the file named by gnuplot variable
+// var (default png); x is the CSV column of the abscissa.
+static void sweep_writePlot(FILE* f, const sweepState* s, const char* var, const char* png,
                             const char* xlabel, int x, double ceiling) {
   static const char* color[CMP_NENGINE] = {"#e07b00", "#1f5fbf"};  // mujoco, ostrich
-  fprintf(f, "set output '%s/%s'\nset xlabel '%s'\n", dir, png, xlabel);
+  fprintf(f, "if (!exists('%s')) %s = '%s'\nset output %s\nset xlabel '%s'\n", var, var, png,
+          var, xlabel);
   // the ceiling is drawn through the data's abscissae, so the axes always get a valid range
   fprintf(f, "plot '%s' using ($%d > 0 ? $%d : 1/0):(%g) smooth unique with lines dt 2 "
           "lc rgb 'gray40' title 'divergence ceiling'", s->csv_path, x, x, ceiling);
@@ -445,18 +444,25 @@ static void sweep_writePlot(FILE* f, const sweepState* s, const char* dir, const
 
 
 // Write DIR/sweep.gp and run gnuplot on it; set s->plots. Missing gnuplot is only a warning.
+// gnuplot draws each PNG into its temporary name; both are renamed once it succeeds.
 static void sweep_plots(sweepState* s, const char* dir, const char* model, double ceiling,
                         int repeats) {
-  char gp[SWEEP_PATH_SZ], log[SWEEP_PATH_SZ];
+  static const char* kPng[2] = {"error_vs_h.png", "error_vs_walltime.png"};
+  char gp[SWEEP_PATH_SZ], gp_tmp[SWEEP_PATH_SZ + 32], log[SWEEP_PATH_SZ];
+  char png[2][SWEEP_PATH_SZ], png_tmp[2][SWEEP_PATH_SZ + 32];
   snprintf(gp, sizeof(gp), "%s/sweep.gp", dir);
   snprintf(log, sizeof(log), "%s/gnuplot.log", dir);
+  for (int i = 0; i < 2; i++) {
+    snprintf(png[i], sizeof(png[i]), "%s/%s", dir, kPng[i]);
+    cli_outputTemp(png[i], png_tmp[i], sizeof(png_tmp[i]));
+  }
   if (strchr(dir, '\'')) {
     cli_error("plots skipped: the output directory's name contains a quote");
     return;
   }
-  FILE* f = fopen(gp, "w");
+  FILE* f = cli_openOutput(gp, gp_tmp, sizeof(gp_tmp));
   if (!f) {
-    cli_error("plots skipped: cannot write '%s': %s", gp, strerror(errno));
+    cli_error("plots skipped");
     return;
   }
   fprintf(f, "# written by `ostrich compare sweep`; rerun with: gnuplot %s\n"
@@ -467,21 +473,29 @@ static void sweep_plots(sweepState* s, const char* dir, const char* model, doubl
   fprintf(f, "set title '%s: error against %s, mean of %d repeats (labels: h in s)' "
           "noenhanced\n", base,
           s->h_ref > 0 ? "stock MuJoCo at the reference step" : "the reference file", repeats);
-  sweep_writePlot(f, s, dir, "error_vs_h.png", "step size h (s)", 2, ceiling);
-  sweep_writePlot(f, s, dir, "error_vs_walltime.png", "wall time per simulated second (s)", 6,
-                  ceiling);
-  if (ferror(f) | fclose(f)) {
-    cli_error("plots skipped: error writing '%s'", gp);
+  sweep_writePlot(f, s, "out_h", png[0], "step size h (s)", 2, ceiling);
+  sweep_writePlot(f, s, "out_wall", png[1], "wall time per simulated second (s)", 6, ceiling);
+  if (cli_commitOutput(f, gp_tmp, gp)) {
+    cli_error("plots skipped");
     return;
   }
-  char* argv[] = {"gnuplot", gp, NULL};
+  // this run draws into the temporary names (the script alone draws into the final ones)
+  char vars[3 * SWEEP_PATH_SZ];
+  snprintf(vars, sizeof(vars), "out_h = '%s'; out_wall = '%s'", png_tmp[0], png_tmp[1]);
+  char* argv[] = {"gnuplot", "-e", vars, gp, NULL};
   int status = cmp_spawn(argv, log, log);
   if (status == 127) {
     cli_error("plots skipped: gnuplot not found (install gnuplot-nox); script in %s", gp);
   } else if (status) {
     cli_error("plots failed: gnuplot exit %d, see %s", status, log);
-  } else {
-    s->plots = 1;
+  }
+  s->plots = !status;
+  for (int i = 0; i < 2; i++) {
+    if (status) {
+      cli_discardOutput(NULL, png_tmp[i]);
+    } else if (cli_commitOutput(NULL, png_tmp[i], png[i])) {
+      s->plots = 0;
+    }
   }
 }
 
@@ -509,7 +523,7 @@ static void sweep_report(const sweepArgs* a, const sweepState* s, const char* di
   }
   printf(",\"h_grid\":");
   cmp_jsonArray(stdout, s->h, s->nh);
-  printf(",\"runs\":%d,\"repeats\":%ld", s->nrow, a->repeats);
+  printf(",\"runs\":%d,\"repeats\":%ld", s->nrow, a->repeat);
   for (int e = CMP_NENGINE - 1; e >= 0; e--) {
     const sweepPlateau* p = s->plateau + e;
     if (!s->use[e]) {
@@ -540,7 +554,7 @@ static void sweep_report(const sweepArgs* a, const sweepState* s, const char* di
 // Parse and check the arguments into a and s; return 0 on success.
 static int sweep_parse(int argc, char** argv, sweepArgs* a, sweepState* s) {
   *a = (sweepArgs){.h_grid = "0.0005,0.001,0.002,0.005,0.01,0.02,0.05,0.1,0.2",
-                   .engines = "ostrich,mujoco", .ceiling = 0.5, .repeats = 5,
+                   .engine = "ostrich,mujoco", .ceiling = 0.5, .repeat = 5,
                    .out = "sweep", .key = -1};
   if (cli_parseArgs("compare sweep", argc, argv, kSweepOptions, kSweepNumOptions, a, &a->model,
                     &a->help)) {
@@ -553,12 +567,12 @@ static int sweep_parse(int argc, char** argv, sweepArgs* a, sweepState* s) {
     cli_error("compare sweep: missing MODEL.xml (see ostrich compare sweep --help)");
     return 1;
   }
-  if (a->repeats < 1) {
-    cli_error("--repeats: must be at least 1");
+  if (a->repeat < 1) {
+    cli_error("--repeat: must be at least 1");
     return 1;
   }
   s->nh = cmp_parsePositiveList("--h-grid", a->h_grid, s->h, SWEEP_MAX_H, 1);
-  return s->nh < 0 || cmp_parseEngines(a->engines, s->use);
+  return s->nh < 0 || cmp_parseEngines(a->engine, s->use) || cli_checkOutputDir("--out", a->out);
 }
 
 
@@ -598,20 +612,16 @@ int compare_sweep_main(int argc, char** argv) {
     status = CLI_USAGE;
   }
   s.key = (int)a.key + 1;
-  if (status == CLI_OK && mkdir(a.out, 0755) && errno != EEXIST) {
-    cli_error("cannot create '%s': %s", a.out, strerror(errno));
-    status = CLI_USAGE;
-  }
 
   // the rows, then per repeat: commands, reference, every run; then plateaus and outputs
   if (status == CLI_OK) {
     s.h_ref = a.reference ? 0 : (a.h_ref > 0 ? a.h_ref : 0.5 * s.h[0]);
     status = sweep_allocRows(&s) ? CLI_FAIL : CLI_OK;
   }
-  for (int r = 0; r < a.repeats && status == CLI_OK; r++) {
+  for (int r = 0; r < a.repeat && status == CLI_OK; r++) {
     status = sweep_perturb(&s, r) ? CLI_FAIL : sweep_reference(&a, &s, r);
     if (status == CLI_OK) {
-      status = sweep_runAll(&s, a.ceiling, r, (int)a.repeats) ? CLI_FAIL : CLI_OK;
+      status = sweep_runAll(&s, a.ceiling, r, (int)a.repeat) ? CLI_FAIL : CLI_OK;
     }
   }
   if (status == CLI_OK) {
@@ -624,7 +634,7 @@ int compare_sweep_main(int argc, char** argv) {
     status = sweep_writeCsv(&s, a.out) ? CLI_FAIL : CLI_OK;
   }
   if (status == CLI_OK) {
-    sweep_plots(&s, a.out, a.model, a.ceiling, (int)a.repeats);
+    sweep_plots(&s, a.out, a.model, a.ceiling, (int)a.repeat);
     sweep_report(&a, &s, a.out, cli_now() - start);
   }
   sweep_free(&s);

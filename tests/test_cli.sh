@@ -74,7 +74,7 @@ EOF
 
 KEYS='["engine","model","h","steps","wall_s","nan","max_penetration","mean_residual",
        "mean_newton_iter","final_qpos"]'
-OPTIONS=(--engine --h --duration --steps --ctrl --newton --pcr --geometry --key --out)
+OPTIONS=(--engine --h --duration --steps --ctrl --newton --pcr --geometry --key --csv)
 BOX=$MODELS/box_plane.xml
 PALLET=$MODELS/robot_pallet.xml
 
@@ -118,7 +118,7 @@ expect_usage_error "--duration and --steps together" sim "$BOX" --duration 1 --s
 
 #---------------------------------- box on a plane (ostrich) --------------------------------------
 
-run sim "$BOX" --h 0.1 --steps 20 --out "$tmp/a.csv"
+run sim "$BOX" --h 0.1 --steps 20 --csv "$tmp/a.csv"
 expect_rc 0 "box_plane, ostrich, h = 0.1, 20 steps"
 expect_py "box_plane: JSON has every key" "all(k in j for k in $KEYS)"
 expect_py "box_plane: engine ostrich, h 0.1, 20 steps, no NaN" \
@@ -138,7 +138,7 @@ expect_py "box_plane: every step converged, none depenetrated" \
 # a box placed 5 cm into its floor: the start depth is reported, it is removed at the bounded
 # depenetration speed (1 m/s: 25 steps of 2 mm at h = 2 ms), and the box never moves faster
 sed 's|<body name="box" pos="0 0 0.1">|<body name="box" pos="0 0 0.05">|' "$BOX" > "$tmp/sunk.xml"
-run sim "$tmp/sunk.xml" --steps 30 --out "$tmp/sunk.csv"
+run sim "$tmp/sunk.xml" --steps 30 --csv "$tmp/sunk.csv"
 expect_rc 0 "sunk box, ostrich, 30 steps"
 expect_py "sunk box: start depth 0.05 m reported, 25 bounded steps, speeds <= 1 m/s" \
   'abs(j["max_penetration"] - 0.05) < 1e-6 and j["depenetrated_steps"] == 25 and
@@ -165,17 +165,17 @@ expect_py "box_plane mujoco: engine mujoco, 100 steps, no NaN" \
 # climbs the pallet at h = 2 ms (the reference); Ostrich climbs it at h = 0.05 s, the main job.
 
 ROBOT=$MODELS/wheeled_robot.xml
-run sim "$ROBOT" --h 0.01 --duration 2 --ctrl 3,3,3 --out "$tmp/r.csv"
+run sim "$ROBOT" --h 0.01 --duration 2 --ctrl 3,3,3 --csv "$tmp/r.csv"
 expect_rc 0 "wheeled_robot, ostrich, h = 0.01, 2 s, ctrl 3,3,3"
 expect_py "wheeled_robot: 200 steps, no NaN, drives ~2.1 m forward" \
   'j["steps"] == 200 and j["nan"] is False and 1.9 < j["final_qpos"][0] < 2.2'
 
-run sim "$PALLET" --engine mujoco --h 0.002 --duration 6 --ctrl 3,3,3 --out "$tmp/pm.csv"
+run sim "$PALLET" --engine mujoco --h 0.002 --duration 6 --ctrl 3,3,3 --csv "$tmp/pm.csv"
 expect_rc 0 "robot_pallet, mujoco, h = 0.002, 6 s, ctrl 3,3,3"
 expect_py "robot_pallet (mujoco): the robot drives over the pallet (final chassis x > 2.0)" \
   'j["final_qpos"][0] > 2.0 and float(rows[-1][1]) > 2.0' "$tmp/pm.csv"
 
-run sim "$PALLET" --h 0.05 --duration 6 --ctrl 3,3,3 --out "$tmp/po.csv"
+run sim "$PALLET" --h 0.05 --duration 6 --ctrl 3,3,3 --csv "$tmp/po.csv"
 expect_rc 0 "robot_pallet, ostrich, h = 0.05, 6 s, ctrl 3,3,3"
 expect_py "robot_pallet (ostrich): 120 steps, no NaN, on the pallet on the way, over it at the end" \
   'j["steps"] == 120 and j["nan"] is False and j["max_penetration"] < 0.02
@@ -253,13 +253,13 @@ KEYS2=$TESTMODELS/pendulum_two_keyframes.xml
 python3 -c 'import re, sys; open(sys.argv[2], "w").write(re.sub(r"<keyframe>.*</keyframe>", "",
   open(sys.argv[1]).read(), flags=re.S))' "$KEYS2" "$tmp/nokey.xml"
 for engine in ostrich mujoco; do
-  run sim "$KEYS2" --engine "$engine" --steps 10 --key 1 --out "$tmp/k1.csv"
+  run sim "$KEYS2" --engine "$engine" --steps 10 --key 1 --csv "$tmp/k1.csv"
   expect_rc 0 "sim --key 1 ($engine)"
   expect_py "sim --key 1 ($engine): first CSV row is keyframe 1 (t 0, qpos 1, qvel 0.5), key 1" \
     'j["key"] == 1 and rows[1] == ["0", "1", "0.5"] and j["steps"] == 10' "$tmp/k1.csv"
   run sim "$tmp/nokey.xml" --engine "$engine" --steps 10
   cp "$tmp/out" "$tmp/nokey.json"
-  run sim "$KEYS2" --engine "$engine" --steps 10 --out "$tmp/k0.csv"
+  run sim "$KEYS2" --engine "$engine" --steps 10 --csv "$tmp/k0.csv"
   expect_py "sim without --key ($engine): starts from qpos0 (0, at rest), as without keyframes" \
     'j["key"] is None and rows[1] == ["0", "0", "0"] and
      j["final_qpos"] == json.load(open("'"$tmp/nokey.json"'"))["final_qpos"]' "$tmp/k0.csv"
@@ -281,7 +281,7 @@ expect_mentions "gradcheck --help documents --key" "--key K" "qpos0"
 # which calls the gradient API (the binary still links it).
 
 BOXM=$MODELS/robot_box.xml
-SYNTH_OPTIONS=(--trials --iters --seed --lr --engine --grad --fd --eps --csv --plot --model)
+SYNTH_OPTIONS=(--trials --iters --seed --lr --engine --grad --fd --eps --csv --plot)
 GRADCHECK_OPTIONS=(--steps --h --seed --wrt --eps --tol --newton --ctrl --key)
 run synth --help
 expect_rc 0 "ostrich synth --help"
@@ -292,15 +292,15 @@ expect_mentions "ostrich gradcheck --help mentions every option and the normwise
   "${GRADCHECK_OPTIONS[@]}" "normwise"
 
 expect_usage_error "synth: unknown option" synth --frobnicate
-expect_usage_error "synth: a positional argument" synth "$BOXM"
-expect_usage_error "synth: --trials 0" synth --trials 0 --model "$BOXM"
-expect_usage_error "synth: --iters not an integer" synth --iters 2.5 --model "$BOXM"
-expect_usage_error "synth: --lr not positive" synth --lr -0.3 --model "$BOXM"
-expect_usage_error "synth: unknown engine" synth --engine bullet --model "$BOXM"
-expect_usage_error "synth: unknown --fd" synth --fd sideways --model "$BOXM"
-expect_usage_error "synth: unknown --grad" synth --grad exact --model "$BOXM"
-expect_usage_error "synth: missing model file" synth --model "$tmp/no_such_model.xml"
-expect_usage_error "synth: a model without a free joint and actuators" synth --model "$BOX" \
+expect_usage_error "synth: two positional arguments" synth "$BOXM" "$BOXM"
+expect_usage_error "synth: --trials 0" synth --trials 0 "$BOXM"
+expect_usage_error "synth: --iters not an integer" synth --iters 2.5 "$BOXM"
+expect_usage_error "synth: --lr not positive" synth --lr -0.3 "$BOXM"
+expect_usage_error "synth: unknown engine" synth --engine bullet "$BOXM"
+expect_usage_error "synth: unknown --fd" synth --fd sideways "$BOXM"
+expect_usage_error "synth: unknown --grad" synth --grad exact "$BOXM"
+expect_usage_error "synth: missing model file" synth "$tmp/no_such_model.xml"
+expect_usage_error "synth: a model without a free joint and actuators" synth "$BOX" \
   --engine mujoco
 expect_usage_error "gradcheck: missing model argument" gradcheck
 expect_usage_error "gradcheck: unknown option" gradcheck "$BOX" --frobnicate 1
@@ -320,7 +320,7 @@ fi
 # one iteration of the mujoco engine: 1 + 30 rollouts of 3000 steps (about a second)
 SUMMARY_KEYS='["engine","trials","successes","success_rate","median_final_error",
                "median_final_speed","median_warm_iter_ms","total_s"]'
-OSTRICH_QUIET=1 run synth --engine mujoco --trials 1 --iters 1 --model "$BOXM" \
+OSTRICH_QUIET=1 run synth --engine mujoco --trials 1 --iters 1 "$BOXM" \
   --csv "$tmp/sm.csv" --plot "$tmp/sm.png"
 expect_rc 0 "synth --engine mujoco, 1 trial, 1 iteration"
 expect_py "synth mujoco: JSON summary keys, 3000 steps of 2 ms, forward differences" \
@@ -371,7 +371,7 @@ expect_rc 1 "gradcheck with an impossible --tol fails"
 expect_py "gradcheck --tol 1e-15: JSON printed with ok false, only qvel compared" \
   'j["ok"] is False and j["qvel"] is not None and j["qpos"] is None and j["params"] is None'
 
-OSTRICH_QUIET=1 run synth --trials 1 --iters 3 --model "$BOXM" --csv "$tmp/so.csv" \
+OSTRICH_QUIET=1 run synth --trials 1 --iters 3 "$BOXM" --csv "$tmp/so.csv" \
   --plot "$tmp/so.png"
 expect_rc 0 "synth --engine ostrich, 1 trial, 3 iterations"
 expect_py "synth ostrich: 60 steps of 0.1 s, adjoint gradients, 3 CSV rows" \
@@ -382,7 +382,7 @@ if [[ -s $tmp/so.png ]] && head -c 8 "$tmp/so.png" | grep -q PNG; then
 else
   fail "synth ostrich: expected a PNG at $tmp/so.png"
 fi
-OSTRICH_QUIET=1 run synth --engine both --trials 1 --iters 2 --model "$BOXM"
+OSTRICH_QUIET=1 run synth --engine both --trials 1 --iters 2 "$BOXM"
 expect_rc 0 "synth --engine both, 1 trial, 2 iterations"
 expect_py "synth both: a summary per engine and the ratio of warm iteration times" \
   "j['engine'] == 'both' and all(k in j[e] for e in ('ostrich', 'mujoco') for k in $SUMMARY_KEYS)
@@ -392,10 +392,10 @@ expect_py "synth both: a summary per engine and the ratio of warm iteration time
 #---------------------------------- bench scale ---------------------------------------------------
 
 expect_usage_error "bench: unknown benchmark" bench speed
-expect_usage_error "bench scale: unknown device" bench scale --device tpu --model "$BOXM"
-expect_usage_error "bench scale: a world count of 0" bench scale --worlds 1,0 --model "$BOXM"
-expect_usage_error "bench scale: missing model" bench scale --model "$tmp/no_such_model.xml"
-OSTRICH_QUIET=1 run bench scale --device cpu --worlds 1,3 --steps 4 --repeat 1 --model "$BOXM" \
+expect_usage_error "bench scale: unknown device" bench scale --device tpu "$BOXM"
+expect_usage_error "bench scale: a world count of 0" bench scale --worlds 1,0 "$BOXM"
+expect_usage_error "bench scale: missing model" bench scale "$tmp/no_such_model.xml"
+OSTRICH_QUIET=1 run bench scale --device cpu --worlds 1,3 --steps 4 --repeat 1 "$BOXM" \
   --csv "$tmp/bs.csv"
 expect_rc 0 "bench scale on the cpu, 1 and 3 worlds"
 if [[ $(grep -c '^cpu,' "$tmp/bs.csv") -eq 2 ]] && grep -q 'world_iters_per_s' "$tmp/bs.csv"; then
@@ -404,7 +404,7 @@ else
   fail "bench scale: expected two cpu rows in $tmp/bs.csv"
 fi
 if OSTRICH_QUIET=1 "$BIN" bench scale --device cuda --worlds 1 --steps 2 --repeat 1 \
-     --model "$BOXM" >/dev/null 2>"$tmp/err"; then
+     "$BOXM" >/dev/null 2>"$tmp/err"; then
   pass "bench scale --device cuda ran (a CUDA build with a GPU)"
 elif grep -q "without CUDA\|cuda" "$tmp/err"; then
   pass "bench scale --device cuda without a GPU build: $(head -c 120 "$tmp/err")"

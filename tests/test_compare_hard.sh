@@ -105,7 +105,7 @@ if [[ $MODE == run ]]; then
   fi
 
   # MuJoCo alone is never expected to pass: exit 0 even where it breaks every bound
-  run compare hard --cases ball_20ms --h-grid 0.1 --engines mujoco --models "$MODELS"
+  run compare hard --cases ball_20ms --h-grid 0.1 --engine mujoco --models "$MODELS"
   if [[ $rc -eq 0 ]]; then pass "MuJoCo only (exit 0)"; else fail "MuJoCo only: expected exit 0"; fi
   expect_py "MuJoCo only: nothing expected" \
     'j["runs"] == 1 and j["ostrich_expected"] == 0 and not mjs[0]["within_bounds"]'
@@ -115,7 +115,7 @@ else
   expect_usage_error "--h-grid zero" --h-grid 0,0.1 --models "$MODELS"
   expect_usage_error "--h-grid empty item" --h-grid 0.01,,0.1 --models "$MODELS"
   expect_usage_error "--h-grid empty" --h-grid "" --models "$MODELS"
-  expect_usage_error "unknown engine" --engines ostrich,bullet --models "$MODELS"
+  expect_usage_error "unknown engine" --engine ostrich,bullet --models "$MODELS"
   expect_usage_error "missing models directory" --cases stack --models "$tmp/none"
   expect_usage_error "unknown option" --h 0.01
   run compare hard --help

@@ -84,7 +84,7 @@ expect_usage_error "sweep: NaN command" compare sweep "$PALLET" --ctrl-file "$tm
 expect_usage_error "sweep: malformed row" compare sweep "$PALLET" --ctrl-file "$tmp/short_row.csv"
 expect_usage_error "sweep: bad h grid" compare sweep "$PALLET" --h-grid 0.01,abc
 expect_usage_error "sweep: negative h" compare sweep "$PALLET" --h-grid 0.01,-0.1
-expect_usage_error "sweep: unknown engine" compare sweep "$PALLET" --engines ostrich,bullet
+expect_usage_error "sweep: unknown engine" compare sweep "$PALLET" --engine ostrich,bullet
 expect_usage_error "sweep: malformed reference" compare sweep "$PALLET" --reference \
   "$tmp/two_columns.csv" --h-grid 0.01 --out "$tmp/s"
 expect_usage_error "sweep: --key beyond the model's keyframes" compare sweep "$PALLET" --key 3 \
@@ -106,7 +106,7 @@ expect_usage_error "gen-logs: no --out" compare gen-logs
 # is its own reference
 out=$tmp/sweep
 run compare sweep "$PALLET" --ctrl-file "$COMMANDS" --h-grid 0.05,0.002,0.01 --h-ref 0.002 \
-  --duration 2.5 --repeats 2 --out "$out"
+  --duration 2.5 --repeat 2 --out "$out"
 expect_py "sweep: JSON summary" \
   'j["runs"] == 6 and j["repeats"] == 2 and j["h_grid"] == [0.002, 0.01, 0.05] and
    j["duration"] == 2.5 and j["reference"] == {"engine": "mujoco", "h": 0.002}'
@@ -153,7 +153,7 @@ fi
 
 # the first synthetic log (0.12 m/s, 31 s), replayed by stock MuJoCo at the reference's step and
 # "true" parameters: only the noise remains, sqrt(3 * 0.01^2 + (0.5 * 0.01)^2) = 0.018 m
-run compare gen-logs --out "$tmp/logs" --logs 1 --seed 7 --model "$PALLET"
+run compare gen-logs --out "$tmp/logs" --logs 1 --seed 7 "$PALLET"
 expect_py "gen-logs: one log, labelled synthetic" \
   'j["logs"] == 1 and j["synthetic"] and j["test"] == 1 and
    "SYNTHETIC" in open("'"$tmp"'/logs/test_01.csv").readline()'
@@ -162,7 +162,7 @@ expect_py "gen-logs: 100 Hz rows, 8 columns, the default commands written" \
    "y", "z", "yaw"] and abs(float(rows[1]["time"]) - 0.01) < 1e-12 and
    open("'"$tmp"'/logs/pallet_commands.csv").read() == open("'"$COMMANDS"'").read()' \
   "$tmp/logs/test_01.csv"
-run compare replay "$tmp/logs/test_01.csv" "$PALLET" --engines mujoco --h-mujoco 0.0005 \
+run compare replay "$tmp/logs/test_01.csv" "$PALLET" --engine mujoco --h-mujoco 0.0005 \
   --kv 270 --friction 0.85
 expect_py "replay: the generating engine and parameters give the noise floor" \
   '0.012 < j["mujoco"]["error"] < 0.025 and "ostrich" not in j'
@@ -174,12 +174,12 @@ expect_py "replay: MuJoCo within 5 cm, Ostrich within 10 cm on train_02" \
   'j["duration"] == 7.6 and j["ostrich"]["error"] < 0.1 and j["mujoco"]["error"] < 0.05 and
    j["ostrich"]["outcome"] == "completed" and j["ostrich"]["steps"] == 152'
 expect_py "replay: trajectory written" 'len(rows) == 153 and float(rows[-1]["x"]) > 5' \
-  "$tmp/replay_ostrich.csv"
+  "$tmp/replay/replay_ostrich.csv"
 
 
 # --key: every run and the reference start from the keyframe (a ball thrown down at 20 m/s from
 # 1.1 m hits the floor within 0.2 s, so both engines move it; from qpos0 it would rest)
-run compare sweep "$2/hard_ball_fast.xml" --key 0 --h-grid 0.002,0.01 --repeats 1 \
+run compare sweep "$2/hard_ball_fast.xml" --key 0 --h-grid 0.002,0.01 --repeat 1 \
   --duration 0.2 --out "$tmp/sweep_key"
 expect_py "sweep --key 0: runs start from the keyframe (the ball moves in every run)" \
   'j["key"] == 0 and j["runs"] == 4 and j["ostrich"]["diverged"] == 0 and
@@ -195,7 +195,7 @@ expect_py "sweep --key 0: every row completed" \
 # true 270; measured friction 0.7), and identification must not hurt its held-out error
 # (measured 0.092 m against 0.098 m at the model's defaults)
 run compare identify --train "$LOGS/train_02.csv" --test "$LOGS/test_07.csv" \
-  --kv-grid 270,330 --friction-grid 0.7,0.85 --solref-grid 0.02 --out "$tmp/identify.csv" \
+  --kv-grid 270,330 --friction-grid 0.7,0.85 --solref-grid 0.02 --csv "$tmp/identify.csv" \
   "$PALLET"
 expect_py "identify: true parameters found (MuJoCo), true kv (Ostrich)" \
   'j["ostrich"]["kv"] == 270 and j["mujoco"]["friction"] == 0.85 and j["mujoco"]["solref"] == 0.02'

@@ -1,7 +1,7 @@
 // ost_cli.c: the `ostrich` command-line tool. Subcommands are dispatched from one table
 // (kCommands); `sim` loads an MJCF model, steps it with Ostrich (ost_step) or stock MuJoCo
-// (mj_step) from qpos0 or a keyframe (--key), optionally writes the trajectory as CSV, and
-// prints a JSON summary; `check` runs sim's acceptance test, then compares native geometry with
+// (mj_step) from qpos0 or a keyframe (--key), optionally writes the trajectory as CSV (--csv),
+// and prints a JSON summary; `check` runs sim's acceptance test, then compares native geometry with
 // MuJoCo's. `synth` (ost_cli_synth.c) and `gradcheck` (ost_cli_gradcheck.c) live in their own
 // files; the shared helpers in ost_cli_util.c.
 // Mirrors MuJoCo's sample programs (testspeed.cc, basic.cc), without rendering.
@@ -38,7 +38,7 @@ typedef struct simArgs_ {         // arguments of `ostrich sim`
   const char* ctrl;               // comma list of nu controls; NULL: not given
   long        newton;             // Newton budget; -1: not given
   long        pcr;                // PCR budget; -1: not given
-  const char* out;                // CSV path; NULL: none
+  const char* csv;                // trajectory CSV path; NULL: none
   const char* geometry;           // "mujoco" or "native"; NULL: the model's option
   long        key;                // start keyframe; CLI_KEY_NONE: qpos0
   int         help;               // --help was given
@@ -66,9 +66,10 @@ static const cliOption kSimOptions[] = {
    "Ostrich's geometry provider (ostrich/geometry): MuJoCo's kinematics\n"
    "and collision, or Ostrich's portable native geometry"},
   CLI_KEY_OPTION(simArgs),
-  {"--out", CLI_ARG_STRING, offsetof(simArgs, out), "FILE.csv",
+  {"--csv", CLI_ARG_STRING, offsetof(simArgs, csv), "FILE.csv",
    "write the trajectory as CSV: header time,qpos_0..,qvel_0..; one row\n"
-   "for the initial state, then one after each step (%.10g)"},
+   "for the initial state, then one after each step (%.10g); written to\n"
+   "FILE.csv.tmp<pid>, renamed at the end (a killed run leaves FILE whole)"},
 };
 
 static const int kSimNumOptions = (int)(sizeof(kSimOptions) / sizeof(kSimOptions[0]));
@@ -127,7 +128,7 @@ static int sim_checkArgs(const simArgs* a) {
     cli_error("--geometry: '%s' is not mujoco or native", a->geometry);
     return 1;
   }
-  return 0;
+  return a->csv && cli_checkOutput("--csv", a->csv);
 }
 
 
@@ -141,7 +142,8 @@ typedef struct simRun_ {          // one simulation: inputs, state and results
   double   h;                     // step size (s)
   long     nstep;                 // steps requested
   mjtNum*  ctrl;                  // controls set before every step (nu); NULL: none
-  FILE*    csv;                   // trajectory output; NULL: none
+  FILE*    csv;                   // trajectory output (its temporary file); NULL: none
+  char     csv_tmp[CLI_PATH_SZ];  // name of that temporary file
 
   // results
   long     done;                  // steps completed
@@ -179,12 +181,8 @@ static int sim_setup(const simArgs* a, simRun* r) {
     }
   }
 
-  // trajectory file
-  if (a->out && !(r->csv = fopen(a->out, "w"))) {
-    cli_error("cannot write '%s': %s", a->out, strerror(errno));
-    return 1;
-  }
-  return 0;
+  // trajectory file, renamed over --csv by sim_free
+  return a->csv && !(r->csv = cli_openOutput(a->csv, r->csv_tmp, sizeof(r->csv_tmp)));
 }
 
 
@@ -376,12 +374,14 @@ static void sim_report(const simArgs* a, const simRun* r) {
 }
 
 
-// Close the CSV file and free the run; return CLI_FAIL if the CSV could not be written.
-static int sim_free(simRun* r) {
+// Close the CSV file (kept: rename it over csv_path; else remove it) and free the run; return
+// CLI_FAIL if the CSV could not be written.
+static int sim_free(simRun* r, const char* csv_path, int keep) {
   int status = CLI_OK;
-  if (r->csv && (ferror(r->csv) | fclose(r->csv))) {
-    cli_error("error writing the CSV file");
-    status = CLI_FAIL;
+  if (r->csv && keep) {
+    status = cli_commitOutput(r->csv, r->csv_tmp, csv_path) ? CLI_FAIL : CLI_OK;
+  } else if (r->csv) {
+    cli_discardOutput(r->csv, r->csv_tmp);
   }
   if (r->d) {
     if (r->ostrich) {
@@ -421,7 +421,8 @@ int sim_main(int argc, char** argv) {
     status = sim_loop(&r);
     sim_report(&a, &r);
   }
-  int freed = sim_free(&r);
+  // the CSV of a failed simulation covers the steps taken, and is kept
+  int freed = sim_free(&r, a.csv, status != CLI_USAGE);
   return status != CLI_OK ? status : freed;
 }
 
@@ -463,6 +464,8 @@ static void check_usage(FILE* f) {
     "Exit status: 0 ok; 1 an error over tolerance (1e-10 relative for kinematics and\n"
     "dynamics, 1e-9 for analytic contact pairs, 1e-6 for MPR pairs and height fields); 2 bad\n"
     "usage, a model that sim refuses, or one the native provider cannot represent.\n"
+    "Progress lines (ostrich: check: ...) go to stderr before and after the comparison,\n"
+    "unless OSTRICH_QUIET=1.\n"
     "\n"
     "options:\n");
   cli_printOptions(f, kCheckOptions, kCheckNumOptions);
@@ -499,7 +502,7 @@ int check_main(int argc, char** argv) {
   }
   simRun r = {0};
   if (cli_loadModel(a.model, &r.m, &r.d)) {
-    sim_free(&r);
+    sim_free(&r, NULL, 0);
     return CLI_USAGE;
   }
 
@@ -509,15 +512,24 @@ int check_main(int argc, char** argv) {
   if (cli_ostrichOptions(r.m, 0, -1, -1, NULL, &opt, err, sizeof(err))) {
     cli_error("%s", err);
     check_refused(a.model, 0, err);
-    sim_free(&r);
+    sim_free(&r, NULL, 0);
     return CLI_USAGE;
   }
+  // one library call compares every state: a line before it and one after it
   ostNativeReport rep;
+  double start = cli_now();
+  if (cli_progress()) {
+    fprintf(stderr, "ostrich: check: %s accepted; comparing native geometry with MuJoCo's at "
+            "%d keyframes and %ld random states ...\n", a.model, r.m->nkey, a.states);
+  }
   int status = ost_compareNative(r.m, (int)a.states, (unsigned)a.seed, &rep, err, sizeof(err));
+  if (cli_progress()) {
+    fprintf(stderr, "ostrich: check: done in %.1f s\n", cli_now() - start);
+  }
   if (status != OST_OK) {
     cli_error("%s", err);
     check_refused(a.model, 1, err);
-    sim_free(&r);
+    sim_free(&r, NULL, 0);
     return CLI_USAGE;
   }
   printf("{\"model\": ");
@@ -532,7 +544,7 @@ int check_main(int argc, char** argv) {
          rep.bias, rep.passive, rep.actuator, rep.jacobian, rep.contact_count,
          rep.contact_analytic[0], rep.contact_analytic[1], rep.contact_analytic[2],
          rep.contact_mpr[0], rep.contact_mpr[1], rep.contact_mpr[2], rep.ok ? "true" : "false");
-  sim_free(&r);
+  sim_free(&r, NULL, 0);
   return rep.ok ? CLI_OK : CLI_FAIL;
 }
 
@@ -573,6 +585,18 @@ static void cli_usage(FILE* f) {
     fprintf(f, "  %-10s %s\n", kCommands[i].name, kCommands[i].summary);
   }
   fprintf(f,
+    "\n"
+    "one grammar for every command:\n"
+    "  MODEL.xml          the model is a positional argument (synth, bench scale and\n"
+    "                     compare gen-logs default to their robot scene)\n"
+    "  --engine E[,E]     ostrich or mujoco; a comma list where a command runs both\n"
+    "  --csv FILE.csv     the one CSV a command writes; --plot FILE.png its figure\n"
+    "  --out DIR          a directory that receives several outputs (created if missing)\n"
+    "  --repeat N         repetitions of a measurement; --key K the start keyframe\n"
+    "Outputs are checked before any work and written to FILE.tmp<pid>, then renamed, so a\n"
+    "killed run leaves the previous file whole. stdout carries one JSON line (null for a\n"
+    "non-finite number) or a table; progress goes to stderr unless OSTRICH_QUIET=1. The\n"
+    "previous release's spellings still work, with a note on stderr (see CHANGELOG.md).\n"
     "\n"
     "options:\n"
     "  -h, --help  print this help and exit\n");

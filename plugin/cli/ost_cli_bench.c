@@ -1,5 +1,5 @@
 // ost_cli_bench.c: `ostrich bench scale`, the world-scaling benchmark of the batched API
-// (issue 6) on the box-traversal scene of `ostrich synth` (robot_box.xml, h = 0.1 s, 60 steps
+// on the box-traversal scene of `ostrich synth` (robot_box.xml, h = 0.1 s, 60 steps
 // over the 6 s horizon). For each world count and device: every world starts from its own
 // random start (synth's distribution) and follows synth's initial wheel command (1.5 rad/s,
 // ramping to 0 over the last second); one untimed rollout warms up, then --repeat timed
@@ -25,10 +25,17 @@
 
 #define BENCH_MAX_COUNTS 32
 
+// the default --device: the CPU batch alone unless this build has the CUDA backend
+#ifdef OSTRICH_HAVE_CUDA
+#define BENCH_DEFAULT_DEVICE "both"
+#else
+#define BENCH_DEFAULT_DEVICE "cpu"
+#endif
+
 typedef struct benchArgs_ {       // arguments of `ostrich bench scale`
   const char* device;             // cuda | cpu | both
   const char* worlds;             // comma-separated world counts
-  const char* model;              // MJCF path
+  const char* model;              // MJCF path (the positional argument)
   const char* csv;                // CSV path or NULL
   const char* plot;               // PNG path or NULL
   long        repeat;             // timed rollouts per point
@@ -41,11 +48,10 @@ typedef struct benchArgs_ {       // arguments of `ostrich bench scale`
 
 static const cliOption kBenchOptions[] = {
   {"--device", CLI_ARG_STRING, offsetof(benchArgs, device), "cuda|cpu|both",
-   "batch device; both runs cuda and the CPU (all cores) (default both)"},
+   "batch device; both runs cuda and the CPU (all cores) (default: both\n"
+   "in a build with CUDA, else cpu; this build: " BENCH_DEFAULT_DEVICE ")"},
   {"--worlds", CLI_ARG_STRING, offsetof(benchArgs, worlds), "N1,N2,...",
    "world counts (default 1,8,64,512,4096,8192,32768)"},
-  {"--model", CLI_ARG_STRING, offsetof(benchArgs, model), "FILE.xml",
-   "scene (default mjcf_models/robot_box.xml)"},
   {"--steps", CLI_ARG_COUNT, offsetof(benchArgs, steps), "T",
    "steps per rollout (default 60: synth's 6 s at h = 0.1 s)"},
   {"--repeat", CLI_ARG_COUNT, offsetof(benchArgs, repeat), "R",
@@ -57,9 +63,10 @@ static const cliOption kBenchOptions[] = {
   {"--replay-checkpoints", CLI_ARG_FLAG, offsetof(benchArgs, replay), "",
    "the backward pass replays the rollout to make its checkpoints\n"
    "(default: the rollout keeps them, T/S world copies more memory)"},
-  {"--csv", CLI_ARG_STRING, offsetof(benchArgs, csv), "FILE.csv", "write the table as CSV"},
+  {"--csv", CLI_ARG_STRING, offsetof(benchArgs, csv), "FILE.csv",
+   "write the table as CSV (checked first, written at the end)"},
   {"--plot", CLI_ARG_STRING, offsetof(benchArgs, plot), "FILE.png",
-   "plot world-steps/s against worlds (gnuplot)"},
+   "plot world-steps/s against worlds (gnuplot; needs --csv)"},
 };
 
 static const int kBenchNumOptions = (int)(sizeof(kBenchOptions) / sizeof(kBenchOptions[0]));
@@ -196,9 +203,12 @@ static int benchPoint(const mjModel* m, const char* device, int nworld, const be
 }
 
 
-// plot world-steps/s against worlds, one line per device
+// plot world-steps/s against worlds, one line per device (into png's temporary name, renamed)
 static int benchPlot(const char* png, const char* csv) {
-  char cmd[2 * CLI_MSG_SZ];
+  char cmd[4 * CLI_PATH_SZ], tmp[CLI_PATH_SZ];
+  if (cli_outputTemp(png, tmp, sizeof(tmp))) {
+    return 1;
+  }
   snprintf(cmd, sizeof(cmd),
            "gnuplot -e \"set terminal png size 900,600; set output '%s'; set logscale xy; "
            "set datafile separator ','; set key top left; set xlabel 'worlds'; "
@@ -207,22 +217,28 @@ static int benchPlot(const char* png, const char* csv) {
            "'< grep ^cpu, %s' using 2:5 with linespoints title 'cpu world-steps (forward, all cores)', "
            "'< grep ^cuda, %s' using 2:7 with linespoints title 'cuda world-iterations (fwd+bwd)', "
            "'< grep ^cpu, %s' using 2:7 with linespoints title 'cpu world-iterations (fwd+bwd)'\" 1>&2",
-           png, csv, csv, csv, csv);
-  return system(cmd) != 0;
+           tmp, csv, csv, csv, csv);
+  if (system(cmd) != 0) {
+    cli_discardOutput(NULL, tmp);
+    return 1;
+  }
+  return cli_commitOutput(NULL, tmp, png);
 }
 
 
 static int benchScale(int argc, char** argv) {
-  benchArgs a = {"both", "1,8,64,512,4096,8192,32768", "mjcf_models/robot_box.xml", NULL, NULL,
+  benchArgs a = {BENCH_DEFAULT_DEVICE, "1,8,64,512,4096,8192,32768", NULL, NULL, NULL,
                  3, 60, 8192, 10, 0, 0};
-  if (cli_parseArgs("bench scale", argc, argv, kBenchOptions, kBenchNumOptions, &a, NULL,
+  if (cli_parseArgs("bench scale", argc, argv, kBenchOptions, kBenchNumOptions, &a, &a.model,
                     &a.help)) {
     return CLI_USAGE;
   }
   if (a.help) {
-    printf("usage: ostrich bench scale [options]\n\n"
+    printf("usage: ostrich bench scale [MODEL.xml] [options]\n\n"
            "World scaling of the batched API on the box-traversal scene (forward rollouts and\n"
-           "optimization iterations: rollout + backward pass).\n\n"
+           "optimization iterations: rollout + backward pass). MODEL.xml: the scene (default\n"
+           "mjcf_models/robot_box.xml). One progress line per point goes to stderr, unless\n"
+           "OSTRICH_QUIET=1.\n\n"
            "options:\n");
     cli_printOptions(stdout, kBenchOptions, kBenchNumOptions);
     cli_printHelpOption(stdout);
@@ -236,6 +252,17 @@ static int benchScale(int argc, char** argv) {
   if (a.repeat < 1 || a.steps < 1 || a.checkpoint < 1) {
     cli_error("bench scale: --repeat, --steps and --checkpoint must be >= 1");
     return CLI_USAGE;
+  }
+  if (a.plot && !a.csv) {
+    cli_error("bench scale: --plot needs --csv");
+    return CLI_USAGE;
+  }
+  if ((a.csv && cli_checkOutput("--csv", a.csv)) ||
+      (a.plot && cli_checkOutput("--plot", a.plot))) {
+    return CLI_USAGE;
+  }
+  if (!a.model) {
+    a.model = "mjcf_models/robot_box.xml";
   }
   long counts[BENCH_MAX_COUNTS];
   int ncount = 0;
@@ -279,9 +306,9 @@ static int benchScale(int argc, char** argv) {
   printf("%-6s %8s %12s %16s %14s %12s %14s %9s %7s %10s %10s\n", "device", "worlds",
          "rollout_s", "world_rollouts/s", "world_steps/s", "iter_s", "world_iters/s", "mem_GB",
          "failed", "fwd_vs_cpu", "iter_vs_cpu");
-  FILE* f = a.csv ? fopen(a.csv, "w") : NULL;
+  char tmp[CLI_PATH_SZ];
+  FILE* f = a.csv ? cli_openOutput(a.csv, tmp, sizeof(tmp)) : NULL;
   if (a.csv && !f) {
-    cli_error("bench scale: cannot write %s", a.csv);
     status = CLI_FAIL;
   }
   if (f) {
@@ -308,15 +335,11 @@ static int benchScale(int argc, char** argv) {
               ratio, iratio);
     }
   }
-  if (f) {
-    fclose(f);
-    if (a.plot && benchPlot(a.plot, a.csv)) {
-      cli_error("bench scale: gnuplot could not draw %s", a.plot);
-      status = CLI_FAIL;
-    }
-  } else if (a.plot) {
-    cli_error("bench scale: --plot needs --csv");
-    status = CLI_USAGE;
+  if (f && cli_commitOutput(f, tmp, a.csv)) {
+    status = CLI_FAIL;
+  } else if (f && a.plot && benchPlot(a.plot, a.csv)) {
+    cli_error("bench scale: gnuplot could not draw %s", a.plot);
+    status = CLI_FAIL;
   }
   mj_deleteModel(m);
   return status;
@@ -325,8 +348,8 @@ static int benchScale(int argc, char** argv) {
 
 int bench_main(int argc, char** argv) {
   if (argc < 1 || !strcmp(argv[0], "--help") || !strcmp(argv[0], "-h")) {
-    printf("usage: ostrich bench scale [options]   (see ostrich bench scale --help)\n"
-           "       ostrich bench models [options] MODEL.xml ...   (ostrich bench models --help)\n");
+    printf("usage: ostrich bench scale [MODEL.xml] [options]  (see ostrich bench scale --help)\n"
+           "       ostrich bench models MODEL.xml ... [options]  (ostrich bench models --help)\n");
     return argc < 1 ? CLI_USAGE : CLI_OK;
   }
   if (!strcmp(argv[0], "scale")) {

@@ -13,7 +13,6 @@
 // a run stopped by --max-wall are reported as such, never dropped.
 #define _POSIX_C_SOURCE 200809L
 
-#include <libgen.h>
 #include <math.h>
 #include <stddef.h>
 #include <stdio.h>
@@ -208,17 +207,6 @@ static int parseList(const char* s, double* v, int nmax, int counts) {
 }
 
 
-// the output's directory is writable (checked before measuring)
-static int outputWritable(const char* option, const char* path) {
-  char* copy = strdup(path);
-  int ok = copy && !access(dirname(copy), W_OK | X_OK);
-  if (!ok) {
-    cli_error("bench models: %s %s: the directory is not writable", option, path);
-  }
-  free(copy);
-  return ok;
-}
-
 
 // steps that cover duration at step size h (at least one)
 static long stepsFor(double duration, double h) {
@@ -295,7 +283,7 @@ static void removeDir(const char* dir) {
 
 
 static void modelsHelp(void) {
-  printf("usage: ostrich bench models [options] MODEL.xml ...\n\n"
+  printf("usage: ostrich bench models MODEL.xml ... [options]\n\n"
          "Time Ostrich's ost_step against stock MuJoCo's mj_step on one core (both run\n"
          "single-threaded). Each model is stepped from its start state over the same simulated\n"
          "duration by mj_step at h = opt.timestep and by ost_step at h and at each --h-scale\n"
@@ -332,23 +320,10 @@ int bench_models_main(int argc, char** argv) {
   int npath = 0;
 
   // options and model paths, in any order
-  for (int i = 0; path && i < argc && !a.help; i++) {
-    const cliOption* o = argv[i][0] == '-' && argv[i][1]
-                         ? cli_findOption(kModelsOptions, kModelsNumOptions, argv[i]) : NULL;
-    if (!strcmp(argv[i], "--help") || !strcmp(argv[i], "-h")) {
-      a.help = 1;
-    } else if (argv[i][0] != '-' || !argv[i][1]) {
-      path[npath++] = argv[i];
-    } else if (!o || i + 1 >= argc) {
-      cli_error(o ? "bench models: %s: missing value"
-                  : "bench models: unknown option '%s' (see ostrich bench models --help)",
-                argv[i]);
-      free(path);
-      return CLI_USAGE;
-    } else if (cli_storeOption(o, argv[++i], &a)) {
-      free(path);
-      return CLI_USAGE;
-    }
+  if (!path || cli_parseArgsList("bench models", argc, argv, kModelsOptions, kModelsNumOptions,
+                                 &a, path, argc, &npath, &a.help)) {
+    free(path);
+    return CLI_USAGE;
   }
   if (a.help) {
     modelsHelp();
@@ -375,8 +350,8 @@ int bench_models_main(int argc, char** argv) {
     cli_error("bench models: --plot needs gnuplot on PATH and a file name without quotes");
     ok = 0;
   }
-  ok = ok && (!a.csv || outputWritable("--csv", a.csv))
-       && (!a.plot || outputWritable("--plot", a.plot));
+  ok = ok && (!a.csv || !cli_checkOutput("--csv", a.csv))
+       && (!a.plot || !cli_checkOutput("--plot", a.plot));
   char* src = ok && ncopy ? bench_models_readSource(a.humanoid) : NULL;
   mjModel* m1 = NULL;
   mjData* d1 = NULL;

@@ -82,7 +82,7 @@ void bench_models_printNotes(const modelsRow* rows, int nrow);
 // slope and npoint (points used), and print the line of the fit.
 void bench_models_printFit(const modelsRow* rows, int nrow, double slope[2], int npoint[2]);
 
-// Write every row, and the fits if fit, to path (path.tmp, then renamed); 0 on success.
+// Write every row, and the fits if fit, to path (atomically: cli_openOutput); 0 on success.
 int bench_models_writeCsv(const char* path, const modelsRow* rows, int nrow,
                           const double* slope, const int* npoint, int fit);
 

@@ -129,9 +129,8 @@ static void csvText(FILE* f, const char* s) {
 
 int bench_models_writeCsv(const char* path, const modelsRow* rows, int nrow,
                           const double* slope, const int* npoint, int fit) {
-  char tmp[4096];
-  snprintf(tmp, sizeof(tmp), "%s.tmp", path);
-  FILE* f = fopen(tmp, "w");
+  char tmp[CLI_PATH_SZ];
+  FILE* f = cli_openOutput(path, tmp, sizeof(tmp));
   if (!f) {
     return 1;
   }
@@ -166,13 +165,7 @@ int bench_models_writeCsv(const char* path, const modelsRow* rows, int nrow,
     csvText(f, msg);
     fputc('\n', f);
   }
-  int bad = ferror(f);
-  bad = fclose(f) || bad;
-  bad = bad || rename(tmp, path);
-  if (bad) {
-    remove(tmp);
-  }
-  return bad;
+  return cli_commitOutput(f, tmp, path);
 }
 
 
@@ -208,11 +201,14 @@ int bench_models_writePlot(const char* png, const char* dir, const modelsRow* ro
       nmodel++;
     }
   }
+  // gnuplot draws into the PNG's temporary name, renamed once it succeeds
+  char png_tmp[CLI_PATH_SZ];
+  bad = bad || cli_outputTemp(png, png_tmp, sizeof(png_tmp));
   if (!bad) {
     FILE* g = f[2];
     fprintf(g, "set terminal png size %d,650\nset output '%s'\nset termoption noenhanced\n"
             "set datafile missing '-'\nset multiplot layout 1,%d\n",
-            (nscaling && nmodel) ? 1600 : 900, png, (nscaling && nmodel) ? 2 : 1);
+            (nscaling && nmodel) ? 1600 : 900, png_tmp, (nscaling && nmodel) ? 2 : 1);
     if (nscaling) {
       fprintf(g, "set title 'N humanoids: time per step against nv (same h)'\n"
               "set logscale xy\nset xlabel 'nv'\nset ylabel 'us per step'\nset key top left\n"
@@ -238,6 +234,11 @@ int bench_models_writePlot(const char* png, const char* dir, const modelsRow* ro
     char cmd[4200];
     snprintf(cmd, sizeof(cmd), "gnuplot '%s' 1>&2", path[2]);
     bad = system(cmd) != 0;
+    if (bad) {
+      cli_discardOutput(NULL, png_tmp);
+    } else {
+      bad = cli_commitOutput(NULL, png_tmp, png);
+    }
   }
   return bad;
 }

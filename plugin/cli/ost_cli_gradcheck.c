@@ -129,7 +129,8 @@ static void gradcheck_usage(FILE* f) {
     "Exit status: 0 every compared group within --tol; 1 a group over --tol, a non-finite\n"
     "gradient, or a failed step or backward pass; 2 bad usage, missing or malformed model,\n"
     "--key out of range, model refused by Ostrich or not representable by the native\n"
-    "geometry (gradients need it).\n");
+    "geometry (gradients need it). Progress lines (ostrich: gradcheck: ...) go to stderr\n"
+    "after the adjoint and every second of finite differences, unless OSTRICH_QUIET=1.\n");
 }
 
 
@@ -533,9 +534,21 @@ static int gradcheck_fd(gradcheckProblem* p, const int wrt[GC_NGROUP], double ep
     return 1;
   }
   mju_copy(ctrl, p->ctrl, p->n * m->nu);
+
+  // progress: a line every second, on the entries done of those compared
+  int progress = cli_progress(), ndone = 0, ntotal = 0;
+  double last = cli_now();
+  for (int g = 0; g < GC_NGROUP; g++) {
+    ntotal += wrt[g] ? p->adr[g + 1] - p->adr[g] : 0;
+  }
   for (int g = 0; g < GC_NGROUP && !bad; g++) {
     for (int c = p->adr[g]; c < p->adr[g + 1] && wrt[g] && !bad; c++) {
       double l1, l2, step;
+      if (progress && cli_now() - last >= 1.0) {
+        fprintf(stderr, "ostrich: gradcheck: finite differences %d/%d\n", ndone, ntotal);
+        last = cli_now();
+      }
+      ndone++;
       int side = gradcheck_boundary(p, c, eps);
       if (!side) {
         bad = gradcheck_perturbed(p, ctrl, qpos, c, 1, eps, &step, &l1) ||
@@ -717,6 +730,9 @@ int gradcheck_main(int argc, char** argv) {
   double t0 = cli_now();
   int failed = gradcheck_adjoint(&p, wrt[GC_PARAMS], &loss);
   double t1 = cli_now();
+  if (cli_progress()) {
+    fprintf(stderr, "ostrich: gradcheck: adjoint in %.2f s; finite differences ...\n", t1 - t0);
+  }
   int one_sided = 0;
   failed = failed || gradcheck_fd(&p, wrt, a.eps, &one_sided);
   double t2 = cli_now();

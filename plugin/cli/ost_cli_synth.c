@@ -116,10 +116,10 @@ static const cliOption kSynthOptions[] = {
   {"--lr", CLI_ARG_POSITIVE, offsetof(synthArgs, lr), "LR",
    "Adam's initial step size in rad/s (default 0.3, the paper's; it\n"
    "decays to a tenth by a cosine over the iterations)"},
-  {"--engine", CLI_ARG_STRING, offsetof(synthArgs, engine), "E",
+  {"--engine", CLI_ARG_STRING, offsetof(synthArgs, engine), "ostrich,mujoco",
    "ostrich (adjoint, h = the model's ostrich/timestep, 0.1 s), mujoco\n"
-   "(mj_step at opt.timestep, 2 ms, finite differences) or both (the same\n"
-   "tasks on each; default ostrich)"},
+   "(mj_step at opt.timestep, 2 ms, finite differences), or both as\n"
+   "ostrich,mujoco or both (the same tasks on each; default ostrich)"},
   {"--grad", CLI_ARG_STRING, offsetof(synthArgs, grad), "truncated|complete",
    "ostrich's backward pass (ostGradOptions.truncate): truncated holds\n"
    "each step's contact geometry fixed, complete pulls it back too\n"
@@ -137,10 +137,9 @@ static const cliOption kSynthOptions[] = {
    "engine,trial,iter,t,x,y (the chassis every 0.1 s of every iteration)"},
   {"--plot", CLI_ARG_STRING, offsetof(synthArgs, plot), "FILE.png",
    "draw the chassis xy paths of every iteration, coloured by iteration,\n"
-   "with the obstacle's footprint, starts and targets (gnuplot)"},
-  {"--model", CLI_ARG_STRING, offsetof(synthArgs, model), "FILE.xml",
-   "scene: a free-jointed robot (joint 0) with nu wheel actuators\n"
-   "(default mjcf_models/robot_box.xml, relative to the working directory)"},
+   "with the obstacle's footprint, starts and targets (gnuplot)\n"
+   "Both outputs are checked before the trials, written to temporary\n"
+   "names and renamed at the end."},
 };
 
 static const int kSynthNumOptions = (int)(sizeof(kSynthOptions) / sizeof(kSynthOptions[0]));
@@ -149,7 +148,10 @@ static const int kSynthNumOptions = (int)(sizeof(kSynthOptions) / sizeof(kSynthO
 // Print the usage of `ostrich synth`.
 static void synth_usage(FILE* f) {
   fprintf(f,
-    "usage: ostrich synth [options]\n"
+    "usage: ostrich synth [MODEL.xml] [options]\n"
+    "\n"
+    "MODEL.xml: the scene, a free-jointed robot (joint 0) with nu wheel actuators (default\n"
+    "mjcf_models/robot_box.xml, relative to the working directory).\n"
     "\n"
     "Control synthesis on the wheeled robot (Ostrich paper, section IV-B). From a random start\n"
     "(x, y ~ U(-0.2, 0.2) m, yaw ~ U(-0.2, 0.2) rad, at rest) the robot drives over the box to a\n"
@@ -188,7 +190,10 @@ static void synth_usage(FILE* f) {
 }
 
 
-// Check the combination of parsed arguments; return 0 on success, else print why.
+static void synth_trajPath(const char* csv, char* buf, size_t sz);
+
+
+// Check the combination of parsed arguments and the outputs; return 0 on success, else print why.
 static int synth_checkArgs(const synthArgs* a) {
   if (a->trials < 1 || a->iters < 1) {
     cli_error("%s: need at least 1", a->trials < 1 ? "--trials" : "--iters");
@@ -206,7 +211,14 @@ static int synth_checkArgs(const synthArgs* a) {
     cli_error("--fd: '%s' is not forward or central", a->fd);
     return 1;
   }
-  return 0;
+
+  // the outputs, before any trial: FILE.csv, FILE_traj.csv next to it, FILE.png
+  char traj[CLI_PATH_SZ];
+  if (a->csv) {
+    synth_trajPath(a->csv, traj, sizeof(traj));
+  }
+  return (a->csv && (cli_checkOutput("--csv", a->csv) || cli_checkOutput("--csv", traj))) ||
+         (a->plot && cli_checkOutput("--plot", a->plot));
 }
 
 
@@ -987,17 +999,16 @@ static void synth_trajPath(const char* csv, char* buf, size_t sz) {
 }
 
 
-// Write the iteration CSV and the trajectory CSV; return 0, else print why.
+// Write the iteration CSV and the trajectory CSV (each atomically); return 0, else print why.
 static int synth_writeCsv(const char* path, const synthEngine* engines, const synthResult* res,
                           int nengine) {
-  char traj[4096];
+  char traj[CLI_PATH_SZ], tmp_f[CLI_PATH_SZ], tmp_g[CLI_PATH_SZ];
   synth_trajPath(path, traj, sizeof(traj));
-  FILE* f = fopen(path, "w");
-  FILE* g = f ? fopen(traj, "w") : NULL;
+  FILE* f = cli_openOutput(path, tmp_f, sizeof(tmp_f));
+  FILE* g = f ? cli_openOutput(traj, tmp_g, sizeof(tmp_g)) : NULL;
   if (!f || !g) {
-    cli_error("cannot write '%s': %s", f ? traj : path, strerror(errno));
     if (f) {
-      fclose(f);
+      cli_discardOutput(f, tmp_f);
     }
     return 1;
   }
@@ -1019,10 +1030,7 @@ static int synth_writeCsv(const char* path, const synthEngine* engines, const sy
       }
     }
   }
-  int err = ferror(f) | ferror(g);
-  err |= fclose(f) | fclose(g);
-  if (err) {
-    cli_error("error writing '%s' or '%s'", path, traj);
+  if (cli_commitOutput(f, tmp_f, path) | cli_commitOutput(g, tmp_g, traj)) {
     return 1;
   }
   fprintf(stderr, "ostrich: wrote %s and %s\n", path, traj);
@@ -1132,6 +1140,10 @@ static void synth_plotScript(FILE* p, const char* terminal, const char* png,
 static int synth_writePlot(const char* png, const synthEngine* engines, const synthResult* res,
                            int nengine, const synthTask* tasks) {
   const char* terminals[] = {"pngcairo", "png"};
+  char tmp[CLI_PATH_SZ];
+  if (cli_outputTemp(png, tmp, sizeof(tmp))) {
+    return 1;
+  }
   for (int i = 0; i < 2; i++) {
     fflush(stdout);
     FILE* p = popen("gnuplot 1>&2", "w");
@@ -1139,18 +1151,23 @@ static int synth_writePlot(const char* png, const synthEngine* engines, const sy
       cli_error("cannot run gnuplot: %s", strerror(errno));
       return 1;
     }
-    synth_plotScript(p, terminals[i], png, engines, res, nengine, tasks);
+    synth_plotScript(p, terminals[i], tmp, engines, res, nengine, tasks);
     int status = pclose(p);
     if (status != -1 && WIFEXITED(status) && WEXITSTATUS(status) == 0) {
+      if (cli_commitOutput(NULL, tmp, png)) {
+        return 1;
+      }
       fprintf(stderr, "ostrich: wrote %s (gnuplot, %s terminal)\n", png, terminals[i]);
       return 0;
     }
     if (status != -1 && WIFEXITED(status) && WEXITSTATUS(status) == 127) {
       cli_error("cannot run gnuplot (is it installed? Debian: gnuplot-nox)");
+      cli_discardOutput(NULL, tmp);
       return 1;
     }
   }
   cli_error("gnuplot could not draw '%s' with the pngcairo or png terminal", png);
+  cli_discardOutput(NULL, tmp);
   return 1;
 }
 
@@ -1200,13 +1217,19 @@ static void synth_report(const synthArgs* a, const synthEngine* engines, const s
 }
 
 
-// `ostrich synth [options]`
+// `ostrich synth [MODEL.xml] [options]`
 int synth_main(int argc, char** argv) {
   synthArgs a = {.trials = 10, .iters = 50, .seed = 1, .lr = 0.3, .engine = "ostrich",
-                 .model = "mjcf_models/robot_box.xml", .fd = "forward", .eps = 0.1,
-                 .grad = "complete"};
-  if (cli_parseArgs("synth", argc, argv, kSynthOptions, kSynthNumOptions, &a, NULL, &a.help)) {
+                 .fd = "forward", .eps = 0.1, .grad = "complete"};
+  if (cli_parseArgs("synth", argc, argv, kSynthOptions, kSynthNumOptions, &a, &a.model,
+                    &a.help)) {
     return CLI_USAGE;
+  }
+  if (!a.model) {
+    a.model = "mjcf_models/robot_box.xml";
+  }
+  if (!strcmp(a.engine, "ostrich,mujoco") || !strcmp(a.engine, "mujoco,ostrich")) {
+    a.engine = "both";  // the comma list of the other commands
   }
   if (a.help) {
     synth_usage(stdout);
