@@ -219,13 +219,18 @@ else
   fail "compare gen-logs: the logs differ"
 fi
 
-# a deprecated spelling is only an alias where its new spelling exists: check has no --csv
-run check "$BOX" --out "$tmp/x.csv"
-if [[ $rc -eq 2 ]] && grep -q "unknown option '--out'" "$tmp/err"; then
-  pass "check --out: unknown (check writes no file)"
-else
-  fail "check --out: expected exit 2 and unknown option"
-fi
+# a deprecated spelling is an alias only in the commands that had it
+for args in "check $BOX --out $tmp/x.csv" "compare hard --out $tmp/x.csv" \
+            "compare models $BOX --model $BOX" "bench models $BOX --engines mujoco"; do
+  read -r -a words <<<"$args"
+  run "${words[@]}"
+  if [[ $rc -eq 2 ]] && grep -q "unknown option" "$tmp/err" && ! grep -q deprecated "$tmp/err"
+  then
+    pass "${words[*]:0:2}: a spelling it never had is an unknown option"
+  else
+    fail "${words[*]:0:2}: expected exit 2, unknown option, no deprecation note"
+  fi
+done
 
 
 #---------------------------------- summary -------------------------------------------------------

@@ -194,22 +194,34 @@ int cli_storeOption(const cliOption* o, const char* text, void* args) {
 
 //---------------------------------- Deprecated spellings ------------------------------------------
 
-// the previous release's spellings; empty again in the next release
+// the previous release's spellings and the commands that had them; empty in the next release
 static const cliAlias kAliases[] = {
-  {"--engines", "--engine"},      // compare sweep, replay, identify, hard
-  {"--repeats", "--repeat"},      // compare sweep
-  {"--out", "--csv"},             // sim's trajectory, compare identify's table: one CSV file
-  {"--model", NULL},              // synth, bench scale, compare gen-logs: the model is positional
+  {"--engines", "--engine", "compare sweep,compare replay,compare identify,compare hard"},
+  {"--repeats", "--repeat", "compare sweep"},
+  {"--out", "--csv", "sim,compare identify"},  // the one CSV they write
+  {"--model", NULL, "synth,bench scale,compare gen-logs"},  // the model is positional
 };
 
 static const int kNumAliases = (int)(sizeof(kAliases) / sizeof(kAliases[0]));
 
 
-const cliAlias* cli_findAlias(const cliOption* options, int noption, int takes_positional,
-                              const char* name) {
+// 1 if command is an item of the comma list list.
+static int cli_inList(const char* list, const char* command) {
+  size_t n = strlen(command);
+  for (const char* c = list; c; c = strchr(c, ',') ? strchr(c, ',') + 1 : NULL) {
+    if (!strncmp(c, command, n) && (c[n] == ',' || !c[n])) {
+      return 1;
+    }
+  }
+  return 0;
+}
+
+
+const cliAlias* cli_findAlias(const char* command, const cliOption* options, int noption,
+                              int takes_positional, const char* name) {
   for (int i = 0; i < kNumAliases; i++) {
     const cliAlias* a = kAliases + i;
-    if (strcmp(a->old, name)) {
+    if (strcmp(a->old, name) || !cli_inList(a->commands, command)) {
       continue;
     }
     if (a->now ? cli_findOption(options, noption, a->now) != NULL : takes_positional) {
@@ -262,7 +274,7 @@ int cli_parseArgsList(const char* command, int argc, char** argv, const cliOptio
 
     // an option, possibly in a deprecated spelling, and its value
     const cliOption* o = cli_findOption(options, noption, arg);
-    const cliAlias* alias = o ? NULL : cli_findAlias(options, noption, cap > 0, arg);
+    const cliAlias* alias = o ? NULL : cli_findAlias(command, options, noption, cap > 0, arg);
     if (!o && !alias) {
       cli_error("%s: unknown option '%s' (see ostrich %s --help)", command, arg, command);
       return 1;

@@ -132,21 +132,23 @@ int cli_parseArgs(const char* command, int argc, char** argv, const cliOption* o
 
 
 //---------------------------------- Deprecated spellings ------------------------------------------
-// One table of the spellings that the previous release accepted. An option that a command's table
-// does not have is looked up here; if its new spelling is in that table (or, for "--model FILE",
-// the command takes a positional model), the option is taken as the new spelling and a note
+// One table of the spellings that the previous release accepted, each with the commands that had
+// it. An option that a command's table does not have is looked up here; if the command had it and
+// its new spelling is in the command's table (or, for "--model FILE", the command takes a
+// positional model), the option is taken as the new spelling and a note
 // "ostrich: COMMAND: 'OLD' is deprecated and will be removed in the next release; use 'NEW'" goes
 // to stderr. The table is empty again in the next release.
 
 typedef struct cliAlias_ {        // a deprecated spelling
   const char* old;                // as the previous release spelled it
   const char* now;                // the canonical option; NULL: the positional model argument
+  const char* commands;           // comma list of the commands that had it ("compare sweep,...")
 } cliAlias;
 
-// The alias of a deprecated option name for a command with this option table, NULL if none.
-// takes_positional: the command takes a positional argument.
-const cliAlias* cli_findAlias(const cliOption* options, int noption, int takes_positional,
-                              const char* name);
+// The alias of a deprecated option name for command (as named in its messages, "compare sweep")
+// with this option table, NULL if none. takes_positional: the command takes a positional argument.
+const cliAlias* cli_findAlias(const char* command, const cliOption* options, int noption,
+                              int takes_positional, const char* name);
 
 
 //---------------------------------- Output files --------------------------------------------------
