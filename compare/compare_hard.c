@@ -1,5 +1,5 @@
-// compare_hard.c: `ostrich compare hard`, the hard-case suite of the A/B harness (issue 5, item
-// 4). Every case of compare_hard_cases.c runs at every step size of --h-grid with each engine:
+// compare_hard.c: `ostrich compare hard`, the hard-case suite of the A/B harness.
+// Every case of compare_hard_cases.c runs at every step size of --h-grid with each engine:
 // Ostrich (ost_step with the timestep overridden to h) and stock MuJoCo 2.2.2 (mj_step with
 // opt.timestep = h, everything else as the model says). After every step the driver measures,
 // from the state alone and identically for both engines:

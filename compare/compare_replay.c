@@ -1,4 +1,4 @@
-// compare_replay.c: the sim-to-real half of the A/B harness (issue 5): `ostrich compare replay`
+// compare_replay.c: the sim-to-real half of the A/B harness: `ostrich compare replay`
 // replays a logged run of the robot open-loop with each engine, `identify` fits each engine's
 // dominant parameters on training logs and scores held-out logs, and `gen-logs` writes the
 // synthetic pallet-traversal logs (a fine-step stock MuJoCo reference with "true" parameters

@@ -1,4 +1,4 @@
-// compare_sweep.c: `ostrich compare sweep`, the timestep sweep of the A/B harness (issue 5).
+// compare_sweep.c: `ostrich compare sweep`, the timestep sweep of the A/B harness.
 // Every engine runs at every step size of a grid on the same commands; each run's error against
 // one reference trajectory (compare_run.c's metric), its wall time per simulated second and its
 // divergence are written to DIR/sweep.csv, plotted with gnuplot (error against h, error against
