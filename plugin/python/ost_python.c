@@ -615,3 +615,35 @@ OSTPY_API int ostpy_backward(ostpyPhysics* p, ostpyTape* t, int tangent, int par
   free(gq);
   return status;
 }
+
+
+// Tangent cotangents gt (n x nv) of coordinate cotangents gc (n x nq) at the states qpos
+// (n x nq): coordToTangent row by row (batches' backward passes take tangent vectors).
+OSTPY_API void ostpy_coordToTangent(const ostpyPhysics* p, int n, const mjtNum* qpos,
+                                    const mjtNum* gc, mjtNum* gt) {
+  int nq = p->m->nq, nv = p->m->nv;
+  for (size_t k = 0; k < (size_t)n; k++) {
+    coordToTangent(p->m, qpos + k * nq, gc + k * nq, gt + k * nv);
+  }
+}
+
+
+// Coordinate gradients gc (n x nq) of tangent gradients gt (n x nv) at the states qpos
+// (n x nq): tangentToCoord row by row.
+OSTPY_API void ostpy_tangentToCoord(const ostpyPhysics* p, int n, const mjtNum* qpos,
+                                    const mjtNum* gt, mjtNum* gc) {
+  int nq = p->m->nq, nv = p->m->nv;
+  for (size_t k = 0; k < (size_t)n; k++) {
+    tangentToCoord(p->m, qpos + k * nq, gt + k * nv, gc + k * nq);
+  }
+}
+
+
+// ost_batchBackward with ostGradOptions built here (truncate; no parameters for batches).
+OSTPY_API int ostpy_batchBackward(ostBatch* b, int truncate, int checkpoint, const mjtNum* gq,
+                                  const mjtNum* gu, mjtNum* gctrl, mjtNum* gq0, mjtNum* gu0) {
+  ostGradOptions go;
+  ost_defaultGradOptions(&go);
+  go.truncate = truncate;
+  return ost_batchBackward(b, &go, checkpoint, gq, gu, gctrl, gq0, gu0);
+}

@@ -7,16 +7,19 @@ with zero-copy NumPy views, dm_control-style named indexing and differentiable r
   physics.step()                               # Ostrich; step(engine="mujoco") for mj_step
   qpos, qvel = traj = ostrich.rollout(physics, actions)      # actions: T x nu
   grads = traj.backward(cot_qpos, cot_qvel)    # .qpos, .qvel, .ctrl, .theta, .params
+  batch = ostrich.Batch(physics, 64)           # many worlds: rollout and backward as above
 
 The API is described in plugin/python/README.md.
 """
 
 from ._lib import MUJOCO_VERSION
+from .batch import Batch, BatchGradients, BatchRollout
 from .errors import MujocoWarning, NotConvergedError, NotConvergedWarning, OstrichError
 from .physics import Physics
 from .rollout import PARAM_GROUPS, Gradients, Rollout, rollout
 
 __all__ = [
     "Physics", "rollout", "Rollout", "Gradients", "PARAM_GROUPS", "OstrichError",
-    "NotConvergedError", "NotConvergedWarning", "MujocoWarning", "MUJOCO_VERSION",
+    "NotConvergedError", "NotConvergedWarning", "MujocoWarning", "MUJOCO_VERSION", "Batch",
+    "BatchRollout", "BatchGradients",
 ]

@@ -53,6 +53,8 @@ _SIGNATURES = {
     "ostpy_tapeError": (_s, [_p]),
     "ostpy_rollout": (_i, [_p, _p, _i, _d, _d, _d, _ip]),
     "ostpy_backward": (_i, [_p, _p, _i, _i, _i, _d, _d, _d, _d, _d, _d]),
+    "ostpy_coordToTangent": (None, [_p, _i, _d, _d, _d]),
+    "ostpy_tangentToCoord": (None, [_p, _i, _d, _d, _d]),
     # ostrich.h, through the same handle
     "ost_nparam": (_i, [_p]),
     "ost_paramAddress": (_i, [_p, _i]),
@@ -63,12 +65,13 @@ _SIGNATURES = {
     "ost_batchSetState": (_i, [_p, _d, _d]),
     "ost_batchGetState": (_i, [_p, _d, _d]),
     "ost_batchSetCtrl": (_i, [_p, _d]),
+    "ost_batchStep": (_i, [_p]),
     "ost_batchRollout": (_i, [_p, _i, _d, _d, _d]),
-    "ost_batchBackward": (_i, [_p, _p, _i, _d, _d, _d, _d, _d]),
+    "ostpy_batchBackward": (_i, [_p, _i, _i, _d, _d, _d, _d, _d]),
+    "ost_batchKeepCheckpoints": (_i, [_p, _i]),
     "ost_batchStatus": (_i, [_p, _ip]),
     "ost_batchUnconverged": (_i, [_p, _ip]),
     "ost_batchError": (_s, [_p]),
-    "ost_defaultGradOptions": (None, [_p]),
 }
 for _name, (_res, _args) in _SIGNATURES.items():
   _f = getattr(lib, _name)
@@ -85,6 +88,8 @@ WARN_NOT_CONVERGED = 100
 
 # ostStatusBit (ostrich.h)
 NOT_CONVERGED_BIT = 1
+STATUS_BITS = {1: "not converged", 2: "capacity overflow", 4: "non-finite value",
+               8: "M + h D not positive definite", 16: "initial violation kept"}
 
 
 def dptr(a):
