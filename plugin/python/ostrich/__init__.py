@@ -9,6 +9,7 @@ with zero-copy NumPy views, dm_control-style named indexing and differentiable r
   grads = traj.backward(cot_qpos, cot_qvel)    # .qpos, .qvel, .ctrl, .theta, .params
   batch = ostrich.Batch(physics, 64)           # many worlds: rollout and backward as above
 
+ostrich.torch (imported on its own, needs PyTorch) wraps rollout as a torch.autograd.Function.
 The API is described in plugin/python/README.md.
 """
 
@@ -16,10 +17,12 @@ from ._lib import MUJOCO_VERSION
 from .batch import Batch, BatchGradients, BatchRollout
 from .errors import MujocoWarning, NotConvergedError, NotConvergedWarning, OstrichError
 from .physics import Physics
-from .rollout import PARAM_GROUPS, Gradients, Rollout, rollout
+from .rollout import (PARAM_GROUPS, Gradients, Rollout, get_theta, param_slices, rollout,
+                      set_theta)
 
 __all__ = [
     "Physics", "rollout", "Rollout", "Gradients", "PARAM_GROUPS", "OstrichError",
     "NotConvergedError", "NotConvergedWarning", "MujocoWarning", "MUJOCO_VERSION", "Batch",
-    "BatchRollout", "BatchGradients",
+    "BatchRollout", "BatchGradients", "get_theta", "set_theta",
+    "param_slices",
 ]

@@ -25,6 +25,47 @@ PARAM_GROUPS = ("friction", "mass", "damping", "gain", "biaspos", "biasvel")
 _PARAM_ROWS = ("ngeom", "nbody", "nv", "nu", "nu", "nu")
 
 
+# each group's entries in the model: (array, column) (ostrich.h, ostParam)
+_PARAM_FIELDS = (("geom_friction", 0), ("body_mass", None), ("dof_damping", None),
+                 ("actuator_gainprm", 0), ("actuator_biasprm", 1), ("actuator_biasprm", 2))
+
+
+def _param_views(physics):
+  """[(group, theta slice, the model's entries)] for every parameter group."""
+  model, out = physics._model_ptr(), []
+  for g, (group, (field, col)) in enumerate(zip(PARAM_GROUPS, _PARAM_FIELDS)):
+    a, b = _lib_.ost_paramAddress(model, g), _lib_.ost_paramAddress(model, g + 1)
+    array = getattr(physics.model, field)
+    out.append((group, slice(a, b), array if col is None else array[:, col]))
+  return out
+
+
+def param_slices(physics):
+  """Where each parameter group lies in theta: {group: slice} (ost_paramAddress)."""
+  return {group: sl for group, sl, _ in _param_views(physics)}
+
+
+def get_theta(physics):
+  """The model's physical parameters theta (ost_nparam) in ostParam order, the vector whose
+  gradient Rollout.backward returns (Gradients.theta): a copy."""
+  theta = np.zeros(_lib_.ost_nparam(physics._model_ptr()))
+  for _, sl, entries in _param_views(physics):
+    theta[sl] = entries
+  return theta
+
+
+def set_theta(physics, theta):
+  """Write theta (ost_nparam, ostParam order) into the model's arrays (geom_friction[:, 0],
+  body_mass, dof_damping, actuator_gainprm[:, 0], actuator_biasprm[:, 1], [:, 2]); steps follow
+  the edit at once."""
+  theta = np.asarray(theta, dtype=np.float64)
+  n = _lib_.ost_nparam(physics._model_ptr())
+  if theta.shape != (n,):
+    raise ValueError(f"theta: shape {theta.shape}, expected ({n},)")
+  for _, sl, entries in _param_views(physics):
+    entries[...] = theta[sl]
+
+
 class _Tape:
   """Owns an ostpyTape."""
 

@@ -178,3 +178,18 @@ def test_rollout_argument_errors(cartpole):
   traj = ostrich.rollout(cartpole.physics, np.zeros((5, 1)))
   with pytest.raises(ValueError, match="cot_qpos: shape"):
     traj.backward(np.zeros((5, 2)))
+
+
+def test_theta_reads_and_writes_the_model(cartpole):
+  physics = cartpole.physics
+  slices = ostrich.param_slices(physics)
+  assert list(slices) == list(ostrich.PARAM_GROUPS)
+  theta = ostrich.get_theta(physics)
+  pole = slices["mass"].start + physics.id("body", "pole")
+  slider = slices["damping"].start + physics.id("joint", "slider")
+  assert theta[pole] == 0.1 and theta[slider] == 0.1 and theta[slices["gain"]][0] == 1
+  theta[pole] = 0.2
+  ostrich.set_theta(physics, theta)
+  assert physics.named.model.body_mass["pole"] == 0.2
+  with pytest.raises(ValueError, match="theta: shape"):
+    ostrich.set_theta(physics, theta[:-1])
