@@ -2,12 +2,15 @@
 // (plugin/python/ostrich/_lib.py). It is the only code that touches mjModel/mjData for Python:
 // loading, array pointers and shapes (from MuJoCo's own X-macro tables in mjxmacro.h, so Python
 // never re-declares a struct layout), names, stepping with either engine, Ostrich's options and
-// statistics, and recorded rollouts with their backward pass.
+// statistics (ost_python_rollout.c: recorded rollouts and their backward pass).
 //
 // Invariant: nothing here exits or lets MuJoCo's default error handler run. ostpy_init installs
 // handlers for mju_user_error / mju_user_warning that record the message (per thread) and
 // return; every call returns a status and leaves its message in the physics' or the tape's
 // error buffer (ostpy_error, ostpy_tapeError).
+//
+// The library's users are Python's ctypes declarations (ostrich/_lib.py): a function marked
+// OSTPY_API is exported, everything else is hidden.
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -15,15 +18,7 @@
 #include <mujoco/mjxmacro.h>
 #include <mujoco/mujoco.h>
 
-#include "ostrich.h"
-
-#if defined(__GNUC__) || defined(__clang__)
-  #define OSTPY_API __attribute__((visibility("default")))
-#else
-  #define OSTPY_API
-#endif
-
-#define OSTPY_MSG_SZ 1024
+#include "ost_python.h"
 
 typedef enum ostpyKind_ {         // element type of an array (ostpy_array)
   OSTPY_MJTNUM = 0,               // double
@@ -34,25 +29,10 @@ typedef enum ostpyKind_ {         // element type of an array (ostpy_array)
   OSTPY_OTHER  = 5                // a struct (mjContact): not exposed
 } ostpyKind;
 
-typedef struct ostpyPhysics_ {    // one model and its data
-  mjModel*   m;
-  mjData*    d;
-  ostOptions opt;                 // the options steps of d use (model's, then ostpy_setOptions)
-  char       err[OSTPY_MSG_SZ];   // message of the last failure ("" if none)
-} ostpyPhysics;
-
-typedef struct ostpyTape_ {       // a recorded rollout (ost_tape) and its states' qpos
-  ostTape* tape;
-  int      nstep;                 // steps recorded
-  int      cap;                   // capacity of qpos in states
-  mjtNum*  qpos;                  // qpos of every state, the start included ((nstep + 1) x nq)
-  char     err[OSTPY_MSG_SZ];     // message of the last failure ("" if none)
-} ostpyTape;
-
 
 //---------------------------------- MuJoCo's messages ---------------------------------------------
 
-static _Thread_local char g_mjError[OSTPY_MSG_SZ];  // first MuJoCo error since the last clear
+static _Thread_local char g_mjError[OSTPY_MSG_SZ];    // first MuJoCo error since the last clear
 static _Thread_local char g_mjWarning[OSTPY_MSG_SZ];  // last MuJoCo warning since the last clear
 
 
@@ -68,8 +48,12 @@ static void onMujocoWarning(const char* msg) {
 }
 
 
-// Set buf to the formatted message (one line, at most OSTPY_MSG_SZ) and return status.
-static int fail(char* buf, int status, const char* msg) {
+char* ostpy_mujocoError(void) {
+  return g_mjError;
+}
+
+
+int ostpy_fail(char* buf, int status, const char* msg) {
   snprintf(buf, OSTPY_MSG_SZ, "%s", msg);
   for (char* c = buf; *c; c++) {
     if (*c == '\n' || *c == '\r') {
@@ -130,7 +114,8 @@ OSTPY_API ostpyPhysics* ostpy_load(const char* src, int is_string, char* err, in
     m = mj_loadXML(src, NULL, msg, sizeof(msg));
   }
   if (!m) {
-    snprintf(err, err_sz, "%s", msg[0] ? msg : g_mjError[0] ? g_mjError : "cannot load the model");
+    const char* why = msg[0] ? msg : g_mjError[0] ? g_mjError : "cannot load the model";
+    snprintf(err, err_sz, "%s", why);
     return NULL;
   }
   ostpyPhysics* p = (ostpyPhysics*)calloc(1, sizeof(ostpyPhysics));
@@ -328,7 +313,8 @@ OSTPY_API int ostpy_setOptions(ostpyPhysics* p, const double* in) {
   #undef X
   int status = ost_setOptions(p->m, p->d, &opt);
   if (status != OST_OK) {
-    return fail(p->err, status, ost_lastError(p->d)[0] ? ost_lastError(p->d) : "bad options");
+    const char* why = ost_lastError(p->d)[0] ? ost_lastError(p->d) : "bad options";
+    return ostpy_fail(p->err, status, why);
   }
   p->opt = opt;
   return OST_OK;
@@ -375,11 +361,11 @@ OSTPY_API int ostpy_step(ostpyPhysics* p, int engine, int nstep) {
       if (OST_IS_WARNING(status)) {
         result = status;
       } else if (status != OST_OK) {
-        return fail(p->err, status, ost_lastError(p->d));
+        return ostpy_fail(p->err, status, ost_lastError(p->d));
       }
     }
     if (g_mjError[0]) {
-      return fail(p->err, OST_ERR_NUMERIC, g_mjError);
+      return ostpy_fail(p->err, OST_ERR_NUMERIC, g_mjError);
     }
   }
   return result;
@@ -390,7 +376,7 @@ OSTPY_API int ostpy_step(ostpyPhysics* p, int engine, int nstep) {
 OSTPY_API int ostpy_forward(ostpyPhysics* p) {
   g_mjError[0] = 0;
   mj_forward(p->m, p->d);
-  return g_mjError[0] ? fail(p->err, OST_ERR_NUMERIC, g_mjError) : OST_OK;
+  return g_mjError[0] ? ostpy_fail(p->err, OST_ERR_NUMERIC, g_mjError) : OST_OK;
 }
 
 
@@ -400,7 +386,7 @@ OSTPY_API int ostpy_reset(ostpyPhysics* p, int key) {
   if (key < -1 || key >= p->m->nkey) {
     char msg[128];
     snprintf(msg, sizeof(msg), "keyframe %d out of range: the model has %d", key, p->m->nkey);
-    return fail(p->err, OST_ERR_INPUT, msg);
+    return ostpy_fail(p->err, OST_ERR_INPUT, msg);
   }
   if (key < 0) {
     mj_resetData(p->m, p->d);
@@ -408,242 +394,4 @@ OSTPY_API int ostpy_reset(ostpyPhysics* p, int key) {
     mj_resetDataKeyframe(p->m, p->d, key);
   }
   return ostpy_forward(p);
-}
-
-
-//---------------------------------- Recorded rollouts ---------------------------------------------
-
-// New tape for p's model (checkpoint as ost_tapeCreate); NULL if out of memory.
-OSTPY_API ostpyTape* ostpy_tapeCreate(ostpyPhysics* p, int checkpoint) {
-  ostpyTape* t = (ostpyTape*)calloc(1, sizeof(ostpyTape));
-  if (!t) {
-    return NULL;
-  }
-  t->tape = ost_tapeCreate(p->m, checkpoint);
-  if (!t->tape) {
-    free(t);
-    return NULL;
-  }
-  return t;
-}
-
-
-// Release a tape (NULL is ignored).
-OSTPY_API void ostpy_tapeFree(ostpyTape* t) {
-  if (t) {
-    ost_tapeDelete(t->tape);
-    free(t->qpos);
-    free(t);
-  }
-}
-
-
-// Message of the tape's last failure ("" if none).
-OSTPY_API const char* ostpy_tapeError(const ostpyTape* t) {
-  return t ? t->err : "no tape";
-}
-
-
-// Record nstep Ostrich steps from p's state with controls ctrl (nstep x nu; NULL: keep d's),
-// after forgetting the tape's last rollout. qpos ((nstep + 1) x nq) and qvel ((nstep + 1) x nv)
-// receive every state, the start first; status (nstep) each step's ost_step status; any may be
-// NULL. Returns OST_OK, OST_WARN_NOT_CONVERGED if a step warned (the rollout went on; the
-// backward pass will refuse it), or the error of the step that failed (message in
-// ostpy_tapeError; the rollout stops there and t->nstep counts the steps taken).
-OSTPY_API int ostpy_rollout(ostpyPhysics* p, ostpyTape* t, int nstep, const mjtNum* ctrl,
-                            mjtNum* qpos, mjtNum* qvel, int* status) {
-  const mjModel* m = p->m;
-  mjData* d = p->d;
-  int nq = m->nq, nv = m->nv, nu = m->nu, result = OST_OK;
-  t->err[0] = 0;
-  t->nstep = 0;
-  ost_tapeClear(t->tape);
-  if (nstep < 0) {
-    return fail(t->err, -3, "the number of steps is negative");
-  }
-  if (t->cap < nstep + 1) {
-    mjtNum* grown = (mjtNum*)realloc(t->qpos, sizeof(mjtNum) * (size_t)(nstep + 1) * nq);
-    if (!grown) {
-      return fail(t->err, OST_ERR_MEMORY, "out of memory for the rollout's states");
-    }
-    t->qpos = grown;
-    t->cap = nstep + 1;
-  }
-  g_mjError[0] = 0;
-  mju_copy(t->qpos, d->qpos, nq);
-  if (qpos) {
-    mju_copy(qpos, d->qpos, nq);
-  }
-  if (qvel) {
-    mju_copy(qvel, d->qvel, nv);
-  }
-  for (int k = 0; k < nstep; k++) {
-    if (ctrl) {
-      mju_copy(d->ctrl, ctrl + (size_t)k * nu, nu);
-    }
-    int s = ost_tapeStep(t->tape, m, d);
-    if (status) {
-      status[k] = s;
-    }
-    if (s != OST_OK && !OST_IS_WARNING(s)) {
-      char msg[OSTPY_MSG_SZ];
-      snprintf(msg, sizeof(msg), "step %d of the rollout failed: %.900s", k + 1, ost_lastError(d));
-      return fail(t->err, s, msg);
-    }
-    if (g_mjError[0]) {
-      char msg[OSTPY_MSG_SZ];
-      snprintf(msg, sizeof(msg), "step %d of the rollout: MuJoCo error: %.900s", k + 1, g_mjError);
-      return fail(t->err, OST_ERR_NUMERIC, msg);
-    }
-    if (OST_IS_WARNING(s)) {
-      result = s;
-    }
-    t->nstep = k + 1;
-    mju_copy(t->qpos + (size_t)(k + 1) * nq, d->qpos, nq);
-    if (qpos) {
-      mju_copy(qpos + (size_t)(k + 1) * nq, d->qpos, nq);
-    }
-    if (qvel) {
-      mju_copy(qvel + (size_t)(k + 1) * nv, d->qvel, nv);
-    }
-  }
-  return result;
-}
-
-
-// Tangent cotangent gt (nv) of a coordinate cotangent gc (nq) at qpos: gt = G(qpos)^T gc, where
-// G is the derivative of qpos along mj_integratePos's tangent (identity for slides, hinges and
-// free positions; d(q * exp(delta / 2))/d delta_i = 1/2 q * (0, e_i) for ball and free
-// rotations, delta in the local frame).
-static void coordToTangent(const mjModel* m, const mjtNum* qpos, const mjtNum* gc, mjtNum* gt) {
-  for (int j = 0; j < m->njnt; j++) {
-    int padr = m->jnt_qposadr[j], vadr = m->jnt_dofadr[j], type = m->jnt_type[j];
-    if (type == mjJNT_FREE) {
-      mju_copy3(gt + vadr, gc + padr);
-      padr += 3;
-      vadr += 3;
-    }
-    if (type == mjJNT_FREE || type == mjJNT_BALL) {
-      for (int i = 0; i < 3; i++) {
-        mjtNum e[4] = {0, 0, 0, 0}, dq[4];
-        e[i + 1] = 0.5;
-        mju_mulQuat(dq, qpos + padr, e);
-        gt[vadr + i] = mju_dot(gc + padr, dq, 4);
-      }
-    } else {
-      gt[vadr] = gc[padr];
-    }
-  }
-}
-
-
-// Coordinate gradient gc (nq) of a tangent gradient gt (nv) at qpos: the one tangent to the
-// unit sphere of each quaternion, gc = G (G^T G)^-1 gt = 4 G gt (the columns of G are
-// orthogonal with norm 1/2), so that gc . (G delta) = gt . delta for every tangent delta.
-static void tangentToCoord(const mjModel* m, const mjtNum* qpos, const mjtNum* gt, mjtNum* gc) {
-  for (int j = 0; j < m->njnt; j++) {
-    int padr = m->jnt_qposadr[j], vadr = m->jnt_dofadr[j], type = m->jnt_type[j];
-    if (type == mjJNT_FREE) {
-      mju_copy3(gc + padr, gt + vadr);
-      padr += 3;
-      vadr += 3;
-    }
-    if (type == mjJNT_FREE || type == mjJNT_BALL) {
-      mju_zero4(gc + padr);
-      for (int i = 0; i < 3; i++) {
-        mjtNum e[4] = {0, 0, 0, 0}, dq[4];
-        e[i + 1] = 2;  // 4 * 1/2
-        mju_mulQuat(dq, qpos + padr, e);
-        mju_addToScl(gc + padr, dq, gt[vadr + i], 4);
-      }
-    } else {
-      gc[padr] = gt[vadr];
-    }
-  }
-}
-
-
-// Backward pass of the recorded rollout (ost_tapeBackward). gqpos: dL/dqpos of every state
-// ((nstep + 1) x nq coordinates, or (nstep + 1) x nv tangent vectors if tangent), gqvel
-// ((nstep + 1) x nv); NULL = zero. Outputs, any may be NULL: gctrl (nstep x nu), gqpos0 (nq
-// coordinates, or nv if tangent), gqvel0 (nv) and, with params, gtheta (ost_nparam, set, not
-// accumulated). truncate: ostGradOptions.truncate. Returns ost_tapeBackward's status (message
-// in ostpy_tapeError: a rollout with an unconverged step is refused, OST_ERR_NOT_CONVERGED).
-OSTPY_API int ostpy_backward(ostpyPhysics* p, ostpyTape* t, int tangent, int params,
-                             int truncate, const mjtNum* gqpos, const mjtNum* gqvel,
-                             mjtNum* gctrl, mjtNum* gqpos0, mjtNum* gqvel0, mjtNum* gtheta) {
-  const mjModel* m = p->m;
-  int nq = m->nq, nv = m->nv, n = t->nstep, status = OST_OK;
-  size_t rows = (size_t)n + 1;
-  t->err[0] = 0;
-  if (ost_tapeSteps(t->tape) != n) {
-    return fail(t->err, OST_ERR_INPUT, "the tape holds no complete rollout");
-  }
-  mjtNum* gq = (mjtNum*)calloc(rows * nv + nv, sizeof(mjtNum));
-  if (!gq) {
-    return fail(t->err, OST_ERR_MEMORY, "out of memory");
-  }
-  mjtNum* gq0 = gq + rows * nv;
-  for (size_t k = 0; k < rows && gqpos; k++) {
-    if (tangent) {
-      mju_copy(gq + k * nv, gqpos + k * nv, nv);
-    } else {
-      coordToTangent(m, t->qpos + k * nq, gqpos + k * nq, gq + k * nv);
-    }
-  }
-  if (params && gtheta) {
-    mju_zero(gtheta, ost_nparam(m));
-  }
-  ostGradOptions go;
-  ost_defaultGradOptions(&go);
-  go.truncate = truncate;
-  go.params = params && gtheta;
-  g_mjError[0] = 0;
-  status = ost_tapeBackward(t->tape, m, &go, gq, gqvel, gctrl, gq0, gqvel0,
-                            go.params ? gtheta : NULL);
-  if (status != OST_OK) {
-    fail(t->err, status, ost_tapeError(t->tape));
-  } else if (g_mjError[0]) {
-    status = fail(t->err, OST_ERR_NUMERIC, g_mjError);
-  } else if (gqpos0) {
-    if (tangent) {
-      mju_copy(gqpos0, gq0, nv);
-    } else {
-      tangentToCoord(m, t->qpos, gq0, gqpos0);
-    }
-  }
-  free(gq);
-  return status;
-}
-
-
-// Tangent cotangents gt (n x nv) of coordinate cotangents gc (n x nq) at the states qpos
-// (n x nq): coordToTangent row by row (batches' backward passes take tangent vectors).
-OSTPY_API void ostpy_coordToTangent(const ostpyPhysics* p, int n, const mjtNum* qpos,
-                                    const mjtNum* gc, mjtNum* gt) {
-  int nq = p->m->nq, nv = p->m->nv;
-  for (size_t k = 0; k < (size_t)n; k++) {
-    coordToTangent(p->m, qpos + k * nq, gc + k * nq, gt + k * nv);
-  }
-}
-
-
-// Coordinate gradients gc (n x nq) of tangent gradients gt (n x nv) at the states qpos
-// (n x nq): tangentToCoord row by row.
-OSTPY_API void ostpy_tangentToCoord(const ostpyPhysics* p, int n, const mjtNum* qpos,
-                                    const mjtNum* gt, mjtNum* gc) {
-  int nq = p->m->nq, nv = p->m->nv;
-  for (size_t k = 0; k < (size_t)n; k++) {
-    tangentToCoord(p->m, qpos + k * nq, gt + k * nv, gc + k * nq);
-  }
-}
-
-
-// ost_batchBackward with ostGradOptions built here (truncate; no parameters for batches).
-OSTPY_API int ostpy_batchBackward(ostBatch* b, int truncate, int checkpoint, const mjtNum* gq,
-                                  const mjtNum* gu, mjtNum* gctrl, mjtNum* gq0, mjtNum* gu0) {
-  ostGradOptions go;
-  ost_defaultGradOptions(&go);
-  go.truncate = truncate;
-  return ost_batchBackward(b, &go, checkpoint, gq, gu, gctrl, gq0, gu0);
 }

@@ -139,3 +139,14 @@ def test_options_stats_and_unconverged_step_warns():
   assert physics.totals["unconverged"] >= 1 and physics.totals["steps"] == 30
   physics.set_options(newton_iter=64)
   assert physics.step() == 0 and physics.converged and physics.stats["status"] == 0
+
+
+def test_views_keep_their_memory_alive():
+  import gc
+  physics = ostrich.Physics.from_xml_path(model_path("cartpole.xml"))
+  physics.data.qpos[:] = [0.25, -0.5]
+  qpos, mass = physics.data.qpos, physics.named.model.body_mass
+  del physics
+  gc.collect()
+  np.testing.assert_array_equal(qpos, [0.25, -0.5])  # the C data is freed with its last view
+  assert mass["pole"] == pytest.approx(0.1)
