@@ -2,9 +2,15 @@
 // Mirrors mjc_BoxBox of engine_collision_box.c in MuJoCo 2.2.2: a separating-axis test over the
 // 6 face normals and the 9 edge-edge directions picks the least-penetrating feature pair, then
 // the contact points of that face (or edge) are clipped against the other box, in the frame of
-// the face turned to +z. MuJoCo's quirks are kept on purpose, since MuJoCo is the oracle: face
-// contacts report half the height as dist, and the edge path reuses a squared gap as a
-// determinant after its first accepted face corner.
+// the face turned to +z. Two versions: osti_collideBoxBoxMujoco keeps MuJoCo's quirks, as the
+// oracle of the tests (face contacts report half the height as dist, face points that can lie
+// outside the reference face, and an edge path that reuses a squared gap as a determinant after
+// its first accepted face corner); osti_collideBoxBox, which both geometry providers use, clips
+// the incident face to the reference face, reports the whole height as dist, breaks near-ties
+// between features in favour of faces, and merges coincident points (osti_collideBoxBoxMode).
+// MuJoCo's half height changes at half the rate J u predicts, so a Newton step removed only half
+// of a box-on-box violation (linear convergence at rate 1/2), and its face choice and point set
+// changed between Newton iterates on a box resting on a box.
 // Invariant: at most 24 (face) or OST_MAXCONPAIR (edge) contacts, all within the margin,
 // normals from g1 to g2, frames completed as MuJoCo's driver completes them.
 #ifndef OSTRICH_CORE_OST_COLLISION_BOXBOX_H_
@@ -371,10 +377,71 @@ OST_HD int osti_boxEdgePoints(ostNum pts[][3], ostNum depth[], const ostNum p[3]
 }
 
 
+// the contact points of a face contact, Ostrich's: the incident face of box B (its face most
+// opposed to the reference face's normal +z) clipped to the reference face's rectangle
+// |x| <= ext[0], |y| <= ext[1] (Sutherland-Hodgman), in the reference face's frame (z: the
+// height over it). pB: B's centre, rB: B's axes as columns, sB: its half sizes. Every point lies
+// on both faces' regions and moves continuously with the poses while the incident face stays the
+// same; at most 8 points.
+OST_HD int osti_boxClipFace(ostNum pts[][3], const ostNum pB[3], const ostNum rB[9],
+                            const ostNum sB[3], const ostNum ext[3]) {
+  // incident face: the axis k with the largest |z| component, on the side facing down
+  int k = 0;
+  for (int i = 1; i < 3; i++) {
+    if (fabs(rB[6+i]) > fabs(rB[6+k])) k = i;
+  }
+  int k1 = (k + 1) % 3, k2 = (k + 2) % 3;
+  ostNum side = rB[6+k] > 0 ? -sB[k] : sB[k];
+  ostNum poly[2][8][3];
+  const ostNum su[4] = {1, -1, -1, 1}, sv[4] = {1, 1, -1, -1};
+  for (int v = 0; v < 4; v++) {
+    for (int i = 0; i < 3; i++) {
+      poly[0][v][i] = pB[i] + side * rB[3*i+k] + su[v] * sB[k1] * rB[3*i+k1]
+                      + sv[v] * sB[k2] * rB[3*i+k2];
+    }
+  }
+  // clip by the four half planes s x_c <= ext[c]
+  int n = 4, cur = 0;
+  for (int e = 0; e < 4 && n > 0; e++) {
+    int c = e / 2;
+    ostNum sg = (e % 2) ? -1 : 1;
+    int m = 0;
+    for (int v = 0; v < n; v++) {
+      const ostNum* a = poly[cur][v];
+      const ostNum* b = poly[cur][(v + 1) % n];
+      ostNum da = sg * a[c] - ext[c], db = sg * b[c] - ext[c];
+      if (da <= 0) {
+        for (int i = 0; i < 3; i++) poly[1-cur][m][i] = a[i];
+        m++;
+      }
+      if ((da < 0 && db > 0) || (da > 0 && db < 0)) {
+        ostNum t = da / (da - db);
+        for (int i = 0; i < 3; i++) poly[1-cur][m][i] = a[i] + t * (b[i] - a[i]);
+        m++;
+      }
+    }
+    n = m;
+    cur = 1 - cur;
+  }
+  for (int v = 0; v < n; v++) {
+    for (int i = 0; i < 3; i++) pts[v][i] = poly[cur][v][i];
+  }
+  return n;
+}
+
+
 // box : box (separating axis test over 3 + 3 face normals and 9 edge-edge directions, then the
-// contact points of the least-penetrating feature pair)
-OST_HD int osti_collideBoxBox(ostContact* con, const ostGeom* g1, const ostGeom* g2,
-                              ostNum margin) {
+// contact points of the least-penetrating feature pair). mujoco = 1: MuJoCo 2.2.2's results
+// (a face contact's dist is half its height; its points from MuJoCo's face routine; the smallest
+// overlap wins, an edge by a relative 1e-12). mujoco = 0, Ostrich's: a face contact's points are
+// the incident face clipped to the reference face (osti_boxClipFace), its dist their height;
+// box 2's face wins over box 1's, and an edge over a face, only by OST_BOXBOX_TIE x the boxes'
+// size (as Box2D and ODE prefer faces): two faces that overlap equally (a box resting on a box,
+// whose overlaps differ by the noise of the tilts) keep one reference face and its points,
+// where the choice flipped from one Newton iterate to the next
+#define OST_BOXBOX_TIE 1e-3
+OST_HD int osti_collideBoxBoxMode(ostContact* con, const ostGeom* g1, const ostGeom* g2,
+                                  ostNum margin, int mujoco) {
   const ostNum *s1 = g1->size, *s2 = g2->size;
   ostNum dif[3], pos21[3], pos12[3], rot[9], rotabs[9], plen1[3], plen2[3];
 
@@ -401,6 +468,9 @@ OST_HD int osti_collideBoxBox(ostContact* con, const ostGeom* g1, const ostGeom*
   osti_boxMulMatTVec(plen1, rotabs, s1);
 
   // face axes: overlap c = s + plen - |center offset|; keep the smallest (code 0..11)
+  ostNum depth_scale = mujoco ? 0.5 : 1;
+  ostNum size = s1[0] + s1[1] + s1[2] + s2[0] + s2[1] + s2[2];
+  ostNum tie = mujoco ? 0 : OST_BOXBOX_TIE * size;
   ostNum pen = margin;
   for (int i = 0; i < 3; i++) {
     pen += s1[i] * 3 + s2[i] * 3;
@@ -416,7 +486,7 @@ OST_HD int osti_collideBoxBox(ostContact* con, const ostGeom* g1, const ostGeom*
       pen = c1;
       code = i + 3 * (pos21[i] < 0);
     }
-    if (c2 < pen) {
+    if (c2 < pen - tie) {
       pen = c2;
       code = i + 3 * (pos12[i] < 0) + 6;
     }
@@ -460,7 +530,7 @@ OST_HD int osti_collideBoxBox(ostContact* con, const ostGeom* g1, const ostGeom*
       if (c3 < -margin) {
         return 0;
       }
-      if (c3 < pen * (1 - 1e-12)) {
+      if (c3 < pen * (1 - 1e-12) - tie) {
         pen = c3;
         // the nearest edges: box 1's corner bits towards box 2, box 2's towards box 1
         cle1 = 0;
@@ -506,9 +576,10 @@ OST_HD int osti_collideBoxBox(ostContact* con, const ostGeom* g1, const ostGeom*
       ext[k] = fabs(t[k]);
     }
     p[2] -= ext[2];
-    int m = osti_boxFacePoints(pts, p, r, onbox2 ? s1 : s2, ext);
+    int m = mujoco ? osti_boxFacePoints(pts, p, r, onbox2 ? s1 : s2, ext)
+                   : osti_boxClipFace(pts, p, r, onbox2 ? s1 : s2, ext);
 
-    // keep the points within the margin; MuJoCo 2.2.2 reports half the height as dist
+    // keep the points within the margin; pos midway between the face and the point
     for (int i = 0; i < m; i++) {
       if (pts[i][2] > margin) {
         continue;
@@ -516,7 +587,7 @@ OST_HD int osti_collideBoxBox(ostContact* con, const ostGeom* g1, const ostGeom*
       for (int k = 0; k < 3; k++) {
         pts[n][k] = pts[i][k];
       }
-      depth[n] = pts[n][2] * 0.5;
+      depth[n] = pts[n][2] * depth_scale;
       pts[n][2] *= 0.5;
       n++;
     }
@@ -577,6 +648,46 @@ OST_HD int osti_collideBoxBox(ostContact* con, const ostGeom* g1, const ostGeom*
     osti_primSetContact(con + h, depth[h], wp, nrm, 0);
   }
   return n;
+}
+
+
+// box : box for both geometry providers: face contacts report their signed distance, and
+// points closer than OST_BOXBOX_MERGE x the boxes' size are one contact (the deeper distance).
+// Boxes with aligned edges (equal boxes stacked) put a corner of one face on an edge of the
+// other: the clipping then reports that point once or twice depending on rounding, which
+// changed the contact count from one Newton iterate to the next.
+#define OST_BOXBOX_MERGE 1e-6
+OST_HD int osti_collideBoxBox(ostContact* con, const ostGeom* g1, const ostGeom* g2,
+                              ostNum margin) {
+  int n = osti_collideBoxBoxMode(con, g1, g2, margin, 0), kept = 0;
+  ostNum tol = OST_BOXBOX_MERGE * (g1->size[0] + g1->size[1] + g1->size[2] + g2->size[0]
+                                   + g2->size[1] + g2->size[2]);
+  for (int i = 0; i < n; i++) {
+    int dup = -1;
+    for (int j = 0; j < kept && dup < 0; j++) {
+      ostNum d[3] = {con[i].pos[0] - con[j].pos[0], con[i].pos[1] - con[j].pos[1],
+                     con[i].pos[2] - con[j].pos[2]};
+      if (osti_primDot(d, d) < tol * tol) {
+        dup = j;
+      }
+    }
+    if (dup >= 0) {
+      if (con[i].dist < con[dup].dist) {
+        con[dup].dist = con[i].dist;
+      }
+      continue;
+    }
+    con[kept++] = con[i];
+  }
+  return kept;
+}
+
+
+// box : box as MuJoCo 2.2.2 computes it (face contacts report half their height): the tests'
+// oracle of the shared algorithm
+OST_HD int osti_collideBoxBoxMujoco(ostContact* con, const ostGeom* g1, const ostGeom* g2,
+                                    ostNum margin) {
+  return osti_collideBoxBoxMode(con, g1, g2, margin, 1);
 }
 
 #ifdef __cplusplus

@@ -8,6 +8,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "ost_collision_boxbox.h"
 #include "ost_collision_cylbox.h"
 #include "ost_collision_terrain.h"
 #include "ost_internal.h"
@@ -232,6 +233,9 @@ int ost_collideCorePair(const mjModel* m, const mjData* d, const ostNum* hfield_
   if (mju_dot3(dx, dx) > reach * reach) {
     return 0;
   }
+  if (a.type == mjGEOM_BOX && b.type == mjGEOM_BOX) {
+    return osti_collideBoxBox(con, &a, &b, margin);
+  }
   return osti_collideCylinderBox(con, &a, &b, margin);
 }
 
@@ -310,7 +314,8 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
 
   // contact rows: normal then two tangents in the contact frame (frame[0:3] from geom1 to
   // geom2, so J_n u > 0 separates); contacts within the look-ahead distance are candidates.
-  // Core pairs (cylinder-box, height field-cylinder, plane-mesh, plane-cylinder) are replaced by core's contacts (below)
+  // Core pairs (cylinder-box, height field-cylinder, plane-mesh, plane-cylinder, box-box) are
+  // replaced by core's contacts (below)
   int status;
   for (int i = 0; i < d->ncon; i++) {
     const mjContact* con = d->contact + i;

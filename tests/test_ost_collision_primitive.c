@@ -275,6 +275,9 @@ static pairStats runPair(int t1, int t2, int ncase, int verbose) {
     int handled = 0;
     int n = osti_collidePrimitive(con, &og1, &og2, margin, &handled);
     ck_assert_int_eq(handled, 1);
+    if (t1 == mjGEOM_BOX && t2 == mjGEOM_BOX) {
+      n = osti_collideBoxBoxMujoco(con, &og1, &og2, margin);  // MuJoCo's half-height dist
+    }
     if (d->ncon) st.nhit++;
     st.ncon += d->ncon;
     if (n != d->ncon) {
@@ -615,6 +618,106 @@ START_TEST(test_plane_cylinder_flat) {
 END_TEST
 
 
+//---------------------------------- box : box (Ostrich's own face points) ------------------------
+
+// a box of half sizes s at pos with orientation quaternion q
+static ostGeom boxGeom(const double s[3], const double pos[3], const double q[4]) {
+  ostGeom g;
+  memset(&g, 0, sizeof(g));
+  g.type = OST_GEOM_BOX;
+  double mat[9];
+  mju_quat2Mat(mat, q);
+  for (int i = 0; i < 3; i++) {
+    g.size[i] = s[i];
+    g.pos[i] = pos[i];
+  }
+  for (int i = 0; i < 9; i++) g.mat[i] = mat[i];
+  g.rbound = sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
+  return g;
+}
+
+
+// equal cubes (half size 0.1) stacked with an offset (0.02, 0.01) and an overlap of 1e-4 m: the
+// four corners of the faces' intersection, each with dist -1e-4 (MuJoCo's routine reports
+// -5e-5, and a fifth point outside the lower face) and the normal +z
+START_TEST(test_box_box_stacked) {
+  const double s[3] = {0.1, 0.1, 0.1}, q0[4] = {1, 0, 0, 0};
+  const double p1[3] = {0, 0, 0.1}, p2[3] = {0.02, 0.01, 0.3 - 1e-4};
+  ostGeom a = boxGeom(s, p1, q0), b = boxGeom(s, p2, q0);
+  ostContact con[OST_MAXCONPAIR];
+  int n = osti_collideBoxBox(con, &a, &b, 0.01);
+  ck_assert_int_eq(n, 4);
+  int seen = 0;
+  for (int i = 0; i < n; i++) {
+    ck_assert_double_eq_tol(con[i].dist, -1e-4, 1e-15);
+    ck_assert_double_eq_tol(con[i].frame[2], 1, 1e-15);
+    ck_assert_double_eq_tol(con[i].pos[2], 0.2 - 0.5e-4, 1e-15);
+    int cx = fabs(con[i].pos[0] - 0.1) < 1e-12 ? 1 : (fabs(con[i].pos[0] + 0.08) < 1e-12 ? 0 : -1);
+    int cy = fabs(con[i].pos[1] - 0.1) < 1e-12 ? 1 : (fabs(con[i].pos[1] + 0.09) < 1e-12 ? 0 : -1);
+    ck_assert_msg(cx >= 0 && cy >= 0, "contact %d at (%g, %g) is no corner", i, con[i].pos[0],
+                  con[i].pos[1]);
+    seen |= 1 << (2 * cx + cy);
+  }
+  ck_assert_int_eq(seen, 15);
+  ck_assert_int_ge(osti_collideBoxBoxMujoco(con, &a, &b, 0.01), 4);
+  ck_assert_double_eq_tol(con[0].dist, -0.5e-4, 1e-15);
+}
+END_TEST
+
+
+// a small box resting on a large one at random sizes, yaws, offsets and tilts up to 0.02 rad:
+// the contacts are the four corners of the small box's lower face, each with its height over
+// the large box's top face as dist (MuJoCo's routine reports half of it) and the normal +z
+START_TEST(test_box_box_resting) {
+  for (int c = 0; c < 5000; c++) {
+    double s1[3], s2[3];
+    for (int i = 0; i < 3; i++) s1[i] = urange(0.1, 0.3);
+    s2[0] = urange(0.2, 0.45) * fmin(s1[0], s1[1]);
+    s2[1] = urange(0.2, 0.45) * fmin(s1[0], s1[1]);
+    s2[2] = urange(0.05, 0.3);
+    double ax[3] = {urange(-1, 1), urange(-1, 1), 0}, z3[3] = {0, 0, 1}, qt[4], qy[4], q2[4];
+    double q1[4] = {1, 0, 0, 0};
+    mju_normalize3(ax);
+    mju_axisAngle2Quat(qt, ax, urange(0, 0.02));
+    mju_axisAngle2Quat(qy, z3, urange(-mjPI, mjPI));
+    mju_mulQuat(q2, qt, qy);
+    // within the large face whatever the yaw and tilt: offset + the small face's half diagonal
+    // + the shift of its lower face by the tilt < s1
+    double reach = hypot(s2[0], s2[1]) + 0.02 * s2[2] + 0.001;
+    double rx = fmax(s1[0] - reach, 0), ry = fmax(s1[1] - reach, 0);
+    double p1[3] = {0, 0, 0}, p2[3] = {urange(-rx, rx), urange(-ry, ry), 0};
+    ostGeom a = boxGeom(s1, p1, q1), b = boxGeom(s2, p2, q2);
+    // the lower face's corners (box 2's axis 2 points up, so -s2[2]); lowest 1e-4 deep
+    double corner[4][3], low = HUGE_VAL;
+    for (int v = 0; v < 4; v++) {
+      double lv[3] = {(v & 1 ? 1 : -1) * s2[0], (v & 2 ? 1 : -1) * s2[1], -s2[2]};
+      mju_mulMatVec(corner[v], b.mat, lv, 3, 3);
+      low = fmin(low, corner[v][2]);
+    }
+    b.pos[2] = s1[2] - low - 1e-4;
+    ostContact con[OST_MAXCONPAIR];
+    int n = osti_collideBoxBox(con, &a, &b, 0.01);
+    ck_assert_int_eq(n, 4);
+    for (int i = 0; i < n; i++) {
+      ck_assert_double_eq_tol(con[i].frame[2], 1, 1e-12);
+      // the corner this contact is (pos is midway: the corner minus dist/2 along +z)
+      int hit = 0;
+      for (int v = 0; v < 4; v++) {
+        double x = b.pos[0] + corner[v][0], y = b.pos[1] + corner[v][1];
+        double z = b.pos[2] + corner[v][2];
+        if (fabs(con[i].pos[0] - x) < 1e-12 && fabs(con[i].pos[1] - y) < 1e-12) {
+          ck_assert_double_eq_tol(con[i].dist, z - s1[2], 1e-12);
+          ck_assert_double_eq_tol(con[i].pos[2], z - 0.5 * con[i].dist, 1e-12);
+          hit = 1;
+        }
+      }
+      ck_assert_msg(hit, "case %d: contact %d is no corner of the small box", c, i);
+    }
+  }
+}
+END_TEST
+
+
 // osti_makeFrame against the frames of mj_forward for tilted planes under a sphere (no hint)
 // and under a capsule (the axis as hint), including normals near the y axis
 START_TEST(test_make_frame) {
@@ -706,6 +809,8 @@ int main(void) {
   tcase_add_test(tc, test_capsule_capsule);
   tcase_add_test(tc, test_sphere_box);
   tcase_add_test(tc, test_box_box);
+  tcase_add_test(tc, test_box_box_stacked);
+  tcase_add_test(tc, test_box_box_resting);
   tcase_add_test(tc, test_capsule_box);
   tcase_add_test(tc, test_cylinder_box);
   suite_add_tcase(s, tc);
