@@ -168,6 +168,7 @@ OST_HD int osti_collidePlaneCapsule(ostContact* con, const ostGeom* g1, const os
 //   at a positive gap, where it carries no force.
 // Every candidate within the margin (and the band) is a contact.
 #define OST_CYLPLANE_TILT 0.01  // tilt (rad) below which the lowest-point contact moves inwards
+#define OST_CYLPLANE_SINTILT 0.009999833334166664  // sin(OST_CYLPLANE_TILT)
 #define OST_CYLPLANE_RIM 6      // fixed rim points per disk
 #define OST_CYLPLANE_BAND 1e-3  // fixed rim points within this fraction of r of the lowest
 OST_HD int osti_collidePlaneCylinder(ostContact* con, const ostGeom* g1, const ostGeom* g2,
@@ -186,7 +187,7 @@ OST_HD int osti_collidePlaneCylinder(ostContact* con, const ostGeom* g1, const o
   ostNum v[3];
   osti_primAxpy(v, n, -s, a);
   ostNum sint = sqrt(osti_primDot(v, v));
-  ostNum scl = -1 / (sint > sin(OST_CYLPLANE_TILT) ? sint : sin(OST_CYLPLANE_TILT));
+  ostNum scl = -1 / (sint > OST_CYLPLANE_SINTILT ? sint : OST_CYLPLANE_SINTILT);
   v[0] *= scl; v[1] *= scl; v[2] *= scl;
 
   // candidates: disk +1 then -1; on each the lowest point (k = -1), then the fixed angles
@@ -199,8 +200,11 @@ OST_HD int osti_collidePlaneCylinder(ostContact* con, const ostGeom* g1, const o
       if (k < 0) {
         for (int i = 0; i < 3; i++) r[i] = radius * v[i];
       } else {
-        ostNum ang = 2 * OST_PI * k / OST_CYLPLANE_RIM;
-        ostNum cs = radius * cos(ang), sn = radius * sin(ang);
+        // cos and sin of k 60 degrees as constants: the same bits on the CPU and the GPU
+        const ostNum rim[OST_CYLPLANE_RIM][2] = {
+          {1, 0}, {0.5, 0.8660254037844386}, {-0.5, 0.8660254037844386},
+          {-1, 0}, {-0.5, -0.8660254037844386}, {0.5, -0.8660254037844386}};
+        ostNum cs = radius * rim[k][0], sn = radius * rim[k][1];
         for (int i = 0; i < 3; i++) r[i] = cs * x[i] + sn * y[i];
       }
       osti_primAxpy(r, r, side * half, a);
