@@ -135,7 +135,7 @@ END_TEST
 
 // equal boxes stacked with small offsets (three high, and two offset by (2, 1) cm): a static
 // equilibrium exists (every centre of mass above its support), so the stack must come to rest
-// at the boxes' heights, with both geometry providers at h = 10 and 50 ms, its steps converged
+// at the boxes' heights, with both geometry providers at h = 10 and 50 ms, every step converged
 // (MuJoCo 2.2.2's box-box contacts, half the depth as dist and a face choice and point set that
 // changed between Newton iterates, left 25-60 % of these steps unconverged)
 START_TEST(test_boxStacksConverge) {
@@ -161,24 +161,15 @@ START_TEST(test_boxStacksConverge) {
         opt.timestep = hs[ih];
         opt.geometry = geo ? OST_GEOMETRY_NATIVE : OST_GEOMETRY_MUJOCO;
         ck_assert_int_eq(ost_setOptions(m, d, &opt), OST_OK);
-        int n = (int)lround(2.0 / hs[ih]), iters = 0, unconverged = 0;
-        double worst = 0;
+        int n = (int)lround(2.0 / hs[ih]), iters = 0;
         for (int k = 0; k < n; k++) {
           int status = ost_step(m, d);
-          ck_assert_msg(status == OST_OK || status == OST_WARN_NOT_CONVERGED,
-                        "stack %d geometry %d h %g step %d: status %d", c, geo, hs[ih], k, status);
-          unconverged += status != OST_OK;
-          worst = fmax(worst, ost_stats(d)->residual);
+          ck_assert_msg(status == OST_OK, "stack %d geometry %d h %g step %d: status %d, "
+                        "residual %g", c, geo, hs[ih], k, status, ost_stats(d)->residual);
           iters += ost_stats(d)->newton_iter;
         }
-        printf("box stack %d, geometry %d, h %g: %.1f Newton iterates per step, %d of %d steps "
-               "unconverged (worst residual %.2g m/s), |v| %.2g\n", c, geo, hs[ih],
-               (double)iters / n, unconverged, n, worst, mju_norm(d->qvel, m->nv));
-        // regression baseline: at most 2 % of the steps stall, within split_tol (measured: 2
-        // and 4 of 200 steps of the three-box stack at h = 10 ms, at 4e-10 and 4e-9 m/s, in its
-        // first steps; MuJoCo's box-box contacts left 86 of 200 unconverged)
-        ck_assert_int_le(50 * unconverged, n);
-        ck_assert_double_le(worst, opt.split_tol);
+        printf("box stack %d, geometry %d, h %g: %.1f Newton iterates per step, |v| %.2g\n", c,
+               geo, hs[ih], (double)iters / n, mju_norm(d->qvel, m->nv));
         for (int b = 0; b < nbox[c]; b++) {
           ck_assert_double_lt(fabs(d->qpos[7 * b + 2] - (0.1 + 0.2 * b)), 1e-6);
         }
