@@ -199,22 +199,15 @@ corpus)
   expect_rc 0 "corpus: no Ostrich run diverged or failed on an accepted sample model"
   expect_py "corpus: every model given is accepted and every run completed" \
     'len(rows) == '$#' * 2 * 2 * 2 and all(r["status"] == "ok" for r in rows)' "$csv"
-  # the converged share: Ostrich's default Newton budget solves these scenes to tol in most
-  # steps (measured 94-100 % per model and h-scale, compare/results/compare_models.md); a share
-  # below 50 % means the solver stalls on the scene as a whole, not on a few hard contact events.
-  # KNOWN FAILURE, listed in KNOWN_UNCONVERGED and exempt from this bound only: mug (0 % of its
-  # steps converge at h x 1 and 5; it neither diverges nor fails, which is still asserted above).
-  KNOWN_UNCONVERGED="mug"
-  expect_py "corpus: per model and h-scale, at least 50 % of Ostrich steps converged (known failures: $KNOWN_UNCONVERGED)" \
-    'all(num(r, "converged_pct") >= 50 for r in rows
-         if r["engine"] == "ostrich" and r["model"] not in "'"$KNOWN_UNCONVERGED"'".split())' \
-    "$csv"
-  for known in $KNOWN_UNCONVERGED; do
-    share=$(python3 -c 'import csv, sys
-print(" ".join("x%s %s%%" % (r["h_scale"], r["converged_pct"]) for r in csv.DictReader(open(sys.argv[1]))
-      if r["model"] == sys.argv[2] and r["engine"] == "ostrich"))' "$csv" "$known")
-    echo "known failure: $known: converged steps $share"
-  done
+  # the converged share: every run of a model must converge in at least half its steps (below
+  # that the solver stalls on the scene as a whole, not on a few hard contact events), and the
+  # corpus as a whole in at least 99.5 % of its Ostrich steps, the product's goal for models
+  # nobody here wrote (measured: 100 %, compare/results/compare_models.md)
+  expect_py "corpus: per model and h-scale, at least 50 % of Ostrich steps converged" \
+    'all(num(r, "converged_pct") >= 50 for r in rows if r["engine"] == "ostrich")' "$csv"
+  expect_py "corpus: at least 99.5 % of all Ostrich steps converged" \
+    'sum(num(r, "steps") - num(r, "unconverged_steps") for r in rows if r["engine"] == "ostrich")
+     >= 0.995 * sum(num(r, "steps") for r in rows if r["engine"] == "ostrich")' "$csv"
   ;;
 
 *)
