@@ -1,4 +1,4 @@
-# compare_sweep.cmake: tests of the sweep / replay / identify half of `ostrich compare` (issue 5),
+# compare_sweep.cmake: tests of the sweep / replay / identify half of `ostrich compare`,
 # included by tests/CMakeLists.txt. test_compare_metric: the error metric, angle helpers, zero-
 # order hold and CSV reader of compare/compare_run.c against hand-made answers (Check).
 # test_compare_sweep: the subcommands end to end (bad inputs, a reduced sweep, gen-logs and

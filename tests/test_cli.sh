@@ -127,6 +127,7 @@ expect_py "box_plane: CSV has a header and 21 rows of nq + nv + 1 = 14 columns" 
   'len(rows) == 22 and all(len(r) == 14 for r in rows) and
    rows[0][:2] == ["time", "qpos_0"] and rows[0][-1] == "qvel_5" and float(rows[1][0]) == 0' \
   "$tmp/a.csv"
+# 1 mm: sinking that would be visible; hard contact keeps far below it
 expect_py "box_plane: the box rests (|z_final - z_0| < 1e-3)" \
   'abs(float(rows[-1][3]) - float(rows[1][3])) < 1e-3 and abs(j["final_qpos"][2] - 0.1) < 1e-3' \
   "$tmp/a.csv"
@@ -167,6 +168,7 @@ expect_py "box_plane mujoco: engine mujoco, 100 steps, no NaN" \
 ROBOT=$MODELS/wheeled_robot.xml
 run sim "$ROBOT" --h 0.01 --duration 2 --ctrl 3,3,3 --csv "$tmp/r.csv"
 expect_rc 0 "wheeled_robot, ostrich, h = 0.01, 2 s, ctrl 3,3,3"
+# rolling without slip: w r = 1.05 m/s for 2 s is 2.1 m, less the start from rest
 expect_py "wheeled_robot: 200 steps, no NaN, drives ~2.1 m forward" \
   'j["steps"] == 200 and j["nan"] is False and 1.9 < j["final_qpos"][0] < 2.2'
 
@@ -177,6 +179,8 @@ expect_py "robot_pallet (mujoco): the robot drives over the pallet (final chassi
 
 run sim "$PALLET" --h 0.05 --duration 6 --ctrl 3,3,3 --csv "$tmp/po.csv"
 expect_rc 0 "robot_pallet, ostrich, h = 0.05, 6 s, ctrl 3,3,3"
+# on the pallet: ride height 0.35 m + pallet 0.144 m = 0.494 m; its far edge is at x = 2.2 m;
+# 2 cm of penetration is a regression baseline (measured: 8e-8 m, test_ost_robot)
 expect_py "robot_pallet (ostrich): 120 steps, no NaN, on the pallet on the way, over it at the end" \
   'j["steps"] == 120 and j["nan"] is False and j["max_penetration"] < 0.02
    and max(float(r[3]) for r in rows[1:]) > 0.48 and j["final_qpos"][0] > 3.0' "$tmp/po.csv"
@@ -207,6 +211,8 @@ expect_usage_error "bad --geometry" sim "$BOX" --geometry fast
 
 run sim "$MODELS/terrain_mesh.xml" --duration 4 --ctrl 3,3,3
 expect_rc 0 "terrain_mesh, ostrich native, h = 0.05, 4 s"
+# w r = 1.05 m/s for 4 s is 4.2 m on flat ground; the bracket allows for the bumps (a regression
+# baseline, like the 0.3 m off its line)
 expect_py "terrain_mesh: drives about 4 m along its line over the mesh" \
   'j["nan"] is False and 3.8 < j["final_qpos"][0] < 4.5 and abs(j["final_qpos"][1]) < 0.3'
 
@@ -347,6 +353,8 @@ fi
 
 run gradcheck "$MODELS/pendulum_chain.xml" --steps 10
 expect_rc 0 "gradcheck pendulum_chain: adjoint equals central differences"
+# smooth models: central differences agree with an exact gradient to round-off, so 1e-6
+# (tighter than --tol's default 1e-3) catches a wrong term
 expect_py "gradcheck pendulum_chain: ok, every group below 1e-6, 16 parameters compared" \
   'j["ok"] is True and max(j["qpos"], j["qvel"], j["ctrl"], j["params"]) < 1e-6 and
    j["n_params"] == 16 and j["params_nonzero"] > 0'

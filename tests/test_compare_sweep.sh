@@ -116,11 +116,13 @@ expect_py "sweep: one CSV row per engine and h, two repeats each" \
 expect_py "sweep: the reference run has error 0 against itself" \
   'float(row("mujoco", 0.002)["error_max"]) == 0 and row("mujoco", 0.002)["diverged"] == "0"' \
   "$out/sweep.csv"
+# regression baseline (measured: 2.6 to 3.2 cm, the model offset described below): 6 cm
 expect_py "sweep: Ostrich completes at every h, errors finite and below 6 cm" \
   'all(r["outcome"] == "completed" and float(r["error_max"]) < 0.06 for r in rows
        if r["engine"] == "ostrich")' "$out/sweep.csv"
 # Ostrich (hard contact, exact cylinder-box geometry) and MuJoCo (soft contact, MPR) differ by a
-# model offset that does not shrink with h: measured 2.6 cm at 2 ms, 3.1 / 3.2 cm at 10 / 50 ms
+# model offset that does not shrink with h: measured 2.6 cm at 2 ms, 3.1 / 3.2 cm at 10 / 50 ms;
+# 4 cm and 1.5x are regression baselines over those values
 expect_py "sweep: Ostrich at h = 10 and 50 ms within 4 cm of MuJoCo at 2 ms, and within 1.5x its own 2 ms error" \
   'float(row("ostrich", 0.01)["error_max"]) < 0.04 and
    float(row("ostrich", 0.05)["error_max"]) < 0.04 and
@@ -164,11 +166,14 @@ expect_py "gen-logs: 100 Hz rows, 8 columns, the default commands written" \
   "$tmp/logs/test_01.csv"
 run compare replay "$tmp/logs/test_01.csv" "$PALLET" --engine mujoco --h-mujoco 0.0005 \
   --kv 270 --friction 0.85
+# the logs' Gaussian noise (sigma 1 cm on x, y, z and 0.01 rad on yaw, GENLOG_SIGMA_* in
+# compare/compare_replay.c) is the floor; the bracket is a regression baseline around it
 expect_py "replay: the generating engine and parameters give the noise floor" \
   '0.012 < j["mujoco"]["error"] < 0.025 and "ostrich" not in j'
 
 # a shipped log (1.02 m/s, a 90 deg right turn) with both engines at the model's parameters; the
-# log comes from MuJoCo, so Ostrich carries the model offset (measured 0.072 m, MuJoCo 0.027 m)
+# log comes from MuJoCo, so Ostrich carries the model offset (measured 0.072 m, MuJoCo 0.027 m;
+# 10 cm and 5 cm are regression baselines over those)
 run compare replay "$LOGS/train_02.csv" "$PALLET" --out "$tmp/replay"
 expect_py "replay: MuJoCo within 5 cm, Ostrich within 10 cm on train_02" \
   'j["duration"] == 7.6 and j["ostrich"]["error"] < 0.1 and j["mujoco"]["error"] < 0.05 and
@@ -193,7 +198,8 @@ expect_py "sweep --key 0: every row completed" \
 # one training and one held-out log, 2 x 2 grids: MuJoCo, which generated the logs, must find
 # its true friction and solref; Ostrich (a different contact model) its best-fitting kv (the
 # true 270; measured friction 0.7), and identification must not hurt its held-out error
-# (measured 0.092 m against 0.098 m at the model's defaults)
+# (measured 0.092 m against 0.098 m at the model's defaults; 10 cm and 4 cm are regression
+# baselines, 4 cm a margin over the logs' noise floor)
 run compare identify --train "$LOGS/train_02.csv" --test "$LOGS/test_07.csv" \
   --kv-grid 270,330 --friction-grid 0.7,0.85 --solref-grid 0.02 --csv "$tmp/identify.csv" \
   "$PALLET"

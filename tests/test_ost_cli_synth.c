@@ -132,6 +132,7 @@ START_TEST(test_lossDerivatives) {
   mju_zero(an, e.nvar);
   synth_pullback(&e, gctrl, an);
   synth_regLoss(&e, knots, an);
+  // capacity of the local control array below (u[64])
   ck_assert_int_le(e.nu, 64);
   for (int c = 0; c < e.nvar; c++) {
     double l[2];

@@ -365,6 +365,8 @@ START_TEST(test_cylinder_box) {
   printf("%-22s %4d poses, %4d contacts (%3d within margin); max |err| dist %.2g pos %.2g "
          "frame %.2g\n", "wheel-on-pallet-edge", st.ncase, st.ncon, st.nmargin, st.emax[0],
          st.emax[1], st.emax[2]);
+  // a coverage floor, not an accuracy bound: most poses must touch (half are placed
+  // penetrating) for the error maxima above to mean anything
   ck_assert_int_ge(hit, 250);
   mj_deleteData(d);
   mj_deleteModel(m);
@@ -443,6 +445,7 @@ static void runPlane(const char* name, const char* gb, int ncase, int graph) {
   printf("%-22s %4d poses, %4d contacts (%3d within margin, %d multi); max |err| dist %.2g "
          "pos %.2g frame %.2g\n", name, st.ncase, st.ncon, st.nmargin, multi, st.emax[0],
          st.emax[1], st.emax[2]);
+  // a coverage floor: at least a tenth of the random poses must give a contact
   ck_assert_int_ge(hit, ncase/10);
   mj_deleteData(d);
   mj_deleteModel(m);

@@ -13,7 +13,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define TOL 1e-9
+#define TOL 1e-9  // the closed forms MuJoCo uses, in double: round-off grown near parallel poses
 
 //---------------------------------- random numbers -----------------------------------------------
 

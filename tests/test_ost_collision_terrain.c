@@ -163,6 +163,8 @@ static void checkErr(const char* what, errStat e, int nmin) {
   printf("%-34s %5d pairs %6d contacts  max err dist %.1e pos %.1e frame %.1e\n", what, e.ncase,
          e.ncon, e.dist, e.pos, e.frame);
   ck_assert_int_ge(e.ncon, nmin);
+  // the same prisms as mj_collision, in double: round-off only (measured: 0 at the time of
+  // writing); 1e-6 is the suite's bound stated at the top
   ck_assert_double_le(e.dist, 1e-6);
   ck_assert_double_le(e.pos, 1e-6);
   ck_assert_double_le(e.frame, 1e-6);
@@ -422,6 +424,8 @@ START_TEST(test_mesh_scene_pair) {
     }
   }
   printf("terrain_mesh.xml vertices vs terrain_hfield.xml samples: max err %.1e\n", egeo);
+  // MuJoCo stores mesh vertices as floats: 1e-7 relative on coordinates of metres
+  // (measured: 1.2e-6)
   ck_assert_double_le(egeo, 5e-6);
 
   ostTerrain t;
@@ -461,6 +465,7 @@ START_TEST(test_mesh_scene_pair) {
         double dmin = 0;
         for (int i = 0; i < nh; i++) dmin = fmin(dmin, ch[i].dist);
         printf("pair count differs (%d vs %d), deepest %.1e\n", nh, nm, dmin);
+        // float rounding of the mesh (about 1e-6 m) times a margin of 10
         ck_assert_double_gt(dmin, -1e-5);
         continue;
       }
@@ -481,6 +486,8 @@ START_TEST(test_mesh_scene_pair) {
   // MPR's answer moves discontinuously with its input: most contacts agree to 1e-5, a few (box
   // corners, grazing prisms) pick another portal after the float rounding of the mesh
   ck_assert_int_gt(ncon, 1000);
+  // regression baseline (measured: 3871 of 3879 within 1e-5 at the time of writing): kept at
+  // 70 % so that MPR's portal choice may change without a whole surface being wrong
   ck_assert_int_ge(nclose, 0.7*ncon);
   free(grid); free(vert); free(face); free(buf);
   mj_deleteData(dh); mj_deleteData(dm);
@@ -606,6 +613,8 @@ START_TEST(test_scenes_rest) {
   mj_forward(m, d);
   ck_assert_int_ge(d->ncon, 1);
   for (int i = 0; i < 500; i++) mj_step(m, d);
+  // stock MuJoCo's soft contact sinks somewhat: 2 mm around the 0.35 m ride height is a
+  // regression baseline for "touching at t = 0 and still resting"
   ck_assert_double_eq_tol(d->qpos[2], 0.35, 2e-3);
   mj_deleteData(d);
   mj_deleteModel(m);

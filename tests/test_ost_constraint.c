@@ -13,6 +13,8 @@ START_TEST(test_fischerBurmeister) {
   // zero on the complementarity set (eps -> 0), non-zero off it
   ck_assert_double_eq_tol(osti_fb(0, 3, 1e-12, &fa, &fb), 0, 1e-12);
   ck_assert_double_eq_tol(osti_fb(2, 0, 1e-12, &fa, &fb), 0, 1e-12);
+  // phi(a, b) = a + b - sqrt(a^2 + b^2): phi(-1, 2) = 1 - sqrt(5) = -1.24 and
+  // phi(1, 1) = 2 - sqrt(2) = 0.59
   ck_assert_double_lt(osti_fb(-1, 2, 1e-12, &fa, &fb), -0.9);
   ck_assert_double_lt(osti_fb(1, 1, 1e-12, &fa, &fb), 0.6);
   ck_assert_double_gt(osti_fb(1, 1, 1e-12, &fa, &fb), 0.5);
@@ -21,6 +23,7 @@ START_TEST(test_fischerBurmeister) {
   osti_fb(a, b, 1e-9, &fa, &fb);
   double fda = (osti_fb(a + e, b, 1e-9, &d1, &d2) - osti_fb(a - e, b, 1e-9, &d1, &d2)) / (2 * e);
   double fdb = (osti_fb(a, b + e, 1e-9, &d1, &d2) - osti_fb(a, b - e, 1e-9, &d1, &d2)) / (2 * e);
+  // central differences with e = 1e-6: O(e^2) truncation plus 1e-16 / e round-off
   ck_assert_double_eq_tol(fa, fda, 1e-8);
   ck_assert_double_eq_tol(fb, fdb, 1e-8);
 }

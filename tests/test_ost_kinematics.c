@@ -443,7 +443,7 @@ START_TEST(test_disabledZero) {
   void* buf = aligned_alloc(64, OST_ALIGN64(ostu_kinSize(om.s)));
   ostu_kinInit(&k, buf, om.s);
   mjtNum qvel[64] = {0};
-  ck_assert_int_le(m->nv, 64);
+  ck_assert_int_le(m->nv, 64);  // capacity of the local qvel[64]
   for (int i = 0; i < m->nv; i++) qvel[i] = 1;
   osti_kinematics(&om, &k, m->qpos0);
   osti_comPos(&om, &k);

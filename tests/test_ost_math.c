@@ -29,6 +29,7 @@ START_TEST(test_sinCos) {
     worst_c = fmax(worst_c, fabs(c) < 0.5 ? fabs(ostu_cos(x) - c) / DBL_EPSILON : ulps(ostu_cos(x), c));
   }
   printf("ostu_sin: max %.2f ulp, ostu_cos: max %.2f ulp\n", worst_s, worst_c);
+  // the accuracy core/ost_math.h documents (measured: sin 2.00, cos 1.00 ulp)
   ck_assert_double_le(worst_s, 2);
   ck_assert_double_le(worst_c, 2);
   ck_assert(ostu_sin(0.0) == 0 && !signbit(ostu_sin(0.0)) && signbit(ostu_sin(-0.0)));
@@ -50,6 +51,7 @@ START_TEST(test_atan2) {
     worst = fmax(worst, ulps(ostu_atan2(y, x), atan2(y, x)));
   }
   printf("ostu_atan2: max %.2f ulp\n", worst);
+  // the accuracy core/ost_math.h documents (measured: 3.00 ulp)
   ck_assert_double_le(worst, 4);
   const double sp[][2] = {{0.0, 1}, {-0.0, 1}, {0.0, -1}, {-0.0, -1}, {1, 0.0}, {-1, 0.0},
                           {0.0, 0.0}, {-0.0, -0.0}, {1, INFINITY}, {INFINITY, -INFINITY}};

@@ -54,6 +54,8 @@ START_TEST(test_landing) {
     merit = sqrt(osti_evaluate(&w, &o));
     if (merit > 1e-12) osti_newtonUpdate(&w, &o);
   }
+  // the Newton loop runs to 1e-12; the landing is then exact up to rounding, and the force
+  // error is the velocity error times m / h = 20
   ck_assert_double_lt(merit, 1e-10);
   ck_assert_double_eq_tol(w.qvel[0], -gap / h, 1e-9);
   ck_assert_double_eq_tol(w.lambda[0], m * (-gap / h - v) / h + m * g, 1e-6);
@@ -87,6 +89,7 @@ START_TEST(test_velocityServo) {
     osti_evaluate(&w, &o);
     osti_newtonUpdate(&w, &o);
   }
+  // a linear problem: Newton solves it to rounding
   ck_assert_double_lt(sqrt(osti_evaluate(&w, &o)), 1e-10);
   ck_assert_double_eq_tol(w.qvel[0], (m * 0.5 + h * (f + kv * ubar)) / (m + h * kv), 1e-10);
   free(buf);
@@ -109,6 +112,7 @@ START_TEST(test_pcr) {
   }
   double b[3] = {1, -1, 0.5}, x[3], y[3];
   int it = osti_pcr(&w, x, b, 10, 1e-15);
+  // PCR on a 3 x 3 system is exact after n = 3 iterations in exact arithmetic; 4 allows rounding
   ck_assert_int_le(it, 4);
   osti_schurApply(&w, y, x);
   for (int i = 0; i < 3; i++) ck_assert_double_eq_tol(y[i], b[i], 1e-12);
@@ -173,6 +177,7 @@ START_TEST(test_gmresSliding) {
     err = fmax(err, fabs(x[i] - xd[i]));
     scale = fmax(scale, fabs(xd[i]));
   }
+  // GMRES runs to a relative residual of 1e-14; 1e-9 leaves room for the system's conditioning
   ck_assert_double_lt(err / scale, 1e-9);
   // the coupling matters: the sliding rows follow mu dlambda_n, which PCR's symmetric A omits
   ck_assert_double_eq_tol(x[1] - 0.8 * x[0], xd[1] - 0.8 * xd[0], 1e-9 * scale);

@@ -59,6 +59,8 @@ START_TEST(test_repeatFromRestoredState) {
     for (int j = 0; j < nv; j++) {
       if (rep == 0) {
         cold[j] = d->qvel[j];
+        // solver accuracy: both solves stop at tol (1e-10 m/s) from different starts; 1e-8 is
+        // 100 times that, for the merit's scaling to qvel
         ck_assert_double_eq_tol(cold[j], warm[j], 1e-8);
       } else {
         ck_assert(d->qvel[j] == cold[j]);
@@ -95,6 +97,7 @@ START_TEST(test_splitStep) {
                      (ost_stats(d)->status & OST_NOT_CONVERGED) != 0);
     warned += status != OST_OK;
     split += ost_stats(d)->substeps > 1;
+    // split_depth 3 (the default): a step is halved at most three times, 2^3 substeps
     ck_assert_int_le(ost_stats(d)->substeps, 8);
     ck_assert_double_eq_tol(d->time, 0.1 * (k + 1), 1e-12);
   }
