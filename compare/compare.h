@@ -1,4 +1,4 @@
-// compare.h: `ostrich compare`, the A/B harness against stock MuJoCo 2.2.2 (issue 5). One
+// compare.h: `ostrich compare`, the A/B harness against stock MuJoCo 2.2.2. One
 // subcommand per file: sweep and replay/identify (compare_sweep.c, compare_replay.c, sharing the
 // engine runner and error metric of compare_run.c), hard cases (compare_hard.c), a user's own
 // models (compare_models.c, its outputs in compare_models_out.c). compare_cli.c

@@ -1,4 +1,4 @@
-// compare_hard_cases.c: the nine hard cases of `ostrich compare hard` (issue 5, item 4) and the
+// compare_hard_cases.c: the nine hard cases of `ostrich compare hard` and the
 // probes that measure each one's physics: sink and drift of a stack, displacement of a sticking
 // box, acceleration of a sliding one, servo tracking error, rebound of a fast ball, sideways
 // drift of a robot crossing a box edge, joint-limit violation of a chain and of the humanoid,

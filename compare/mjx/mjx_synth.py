@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""MJX baseline of `ostrich synth` (issue 6): time per gradient iteration of the control-synthesis
+"""MJX baseline of `ostrich synth`: time per gradient iteration of the control-synthesis
 task on the wheeled robot, batched over W worlds, with reverse-mode jax.grad through MJX.
 
 The task, spline and loss are those of plugin/cli/ost_cli_synth.c (see its header comment):
