@@ -55,6 +55,18 @@ def model_path(name):
   return os.path.join(MODEL_DIR, name)
 
 
+def starved_box_plane(newton_iter):
+  """box_plane.xml stepped at 20 ms with a Newton budget of newton_iter and no splitting, so a
+  box thrown at its floor takes steps that do not converge."""
+  with open(model_path("box_plane.xml")) as f:
+    return f.read().replace(
+        '<option timestep="0.002"/>',
+        '<option timestep="0.002"/><custom>'
+        f'<numeric name="ostrich/newton_iter" data="{newton_iter}"/>'
+        '<numeric name="ostrich/split_depth" data="0"/>'
+        '<numeric name="ostrich/timestep" data="0.02"/></custom>')
+
+
 @pytest.fixture(autouse=True)
 def _warnings_are_errors():
   """A warning a test does not expect (pytest.warns) fails it."""

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import ostrich
-from conftest import FREE_BALL, model_path
+from conftest import FREE_BALL, model_path, starved_box_plane
 
 
 def single(physics, actions, qpos0, qvel0, cot_qpos, cot_qvel):
@@ -62,12 +62,7 @@ def test_batch_free_joint_gradient_in_coordinates():
 
 
 def test_batch_refuses_unconverged_worlds():
-  with open(model_path("box_plane.xml")) as f:
-    xml = f.read().replace(
-        '<option timestep="0.002"/>',
-        '<option timestep="0.002"/><custom><numeric name="ostrich/newton_iter" data="2"/>'
-        '<numeric name="ostrich/split_depth" data="0"/>'
-        '<numeric name="ostrich/timestep" data="0.02"/></custom>')
+  xml = starved_box_plane(2)
   physics = ostrich.Physics.from_xml_string(xml)
   batch = ostrich.Batch(physics, 2, "cpu:1")
   qpos0 = np.tile(physics.model.qpos0, (2, 1))

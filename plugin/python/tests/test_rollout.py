@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import ostrich
-from conftest import FREE_BALL, model_path
+from conftest import FREE_BALL, model_path, starved_box_plane
 
 TOL = 1e-4  # normwise relative error of each gradient group
 
@@ -154,13 +154,7 @@ def test_free_joint_gradient_in_qpos_coordinates():
 
 
 def test_unconverged_rollout_refuses_its_gradient():
-  with open(model_path("box_plane.xml")) as f:
-    xml = f.read()
-  xml = xml.replace(
-      '<option timestep="0.002"/>',
-      '<option timestep="0.002"/><custom><numeric name="ostrich/newton_iter" data="1"/>'
-      '<numeric name="ostrich/split_depth" data="0"/>'
-      '<numeric name="ostrich/timestep" data="0.02"/></custom>')
+  xml = starved_box_plane(1)
   physics = ostrich.Physics.from_xml_string(xml)
   assert physics.options["newton_iter"] == 1
   physics.named.data.qvel["box_free"] = [1, 0, -2, 0, 0, 0]  # thrown at its floor

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import ostrich
-from conftest import model_path
+from conftest import model_path, starved_box_plane
 
 torch = pytest.importorskip("torch")
 import ostrich.torch  # noqa: E402  (needs torch)
@@ -50,12 +50,7 @@ def test_torch_gradients_equal_the_numpy_backward():
 
 
 def test_torch_unconverged_rollout_raises_in_backward():
-  with open(model_path("box_plane.xml")) as f:
-    xml = f.read().replace(
-        '<option timestep="0.002"/>',
-        '<option timestep="0.002"/><custom><numeric name="ostrich/newton_iter" data="1"/>'
-        '<numeric name="ostrich/split_depth" data="0"/>'
-        '<numeric name="ostrich/timestep" data="0.02"/></custom>')
+  xml = starved_box_plane(1)
   physics = ostrich.Physics.from_xml_string(xml)
   qvel0 = torch.tensor([1.0, 0, -2, 0, 0, 0], dtype=torch.float64, requires_grad=True)
   with pytest.warns(ostrich.NotConvergedWarning):
