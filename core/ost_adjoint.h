@@ -12,6 +12,7 @@
 //   friction   k_f (lambda_f - proj_{|.| <= mu lambda_n}(z)),
 //              z = lambda_f - (J_f u + c_s lambda_f) / k_f                       (eq. 5-7)
 //   servo      alpha (lambda - clamp(pos + b2 J u))                              (eq. 8)
+//   dry        k_f (lambda - clamp(z, -mu, mu)), z = lambda - (J u + c_s lambda) / k_f
 // with q+ = q- (+) h u. Scaling a row does not move the root, only conditions the Jacobian.
 // Invariant: functions here write only their outputs and the world they are given.
 #ifndef OSTRICH_CORE_OST_ADJOINT_H_
@@ -394,6 +395,14 @@ OST_HD void osti_stepResidual(ostWorld* w, const ostNum* u, const ostNum* lambda
       }
       r[i] = kf * (lam - scl * z1);
       r[b] = kf * (lambda[b] - scl * z2);
+      break;
+    }
+    case OST_ROW_DRY: {
+      // k_f (lambda - clamp(z, -mu, mu)), z = lambda - (J u + c_s lambda) / k_f (osti_dryRow)
+      ostNum kf = h * w->diag[i], cs = reg * kf;
+      ostNum z = lam - (w->Ju[i] + cs * lam) / kf;
+      z = z < -row->mu ? -row->mu : (z > row->mu ? row->mu : z);
+      r[i] = kf * (lam - z);
       break;
     }
     case OST_ROW_SERVO: {

@@ -6,6 +6,9 @@
 // Row layout contract: a contact contributes one OST_ROW_CONTACT (normal) row, immediately
 // followed by its two OST_ROW_FRICTION rows when it has friction (condim 3). A friction row
 // stores the index of its normal row in `normal`. Units: every row's residual is a velocity.
+// Dry-friction rows (frictionloss) are box-constrained: |lambda| <= mu, one row per dof or
+// tendon, obj = (dof or tendon id, 0 dof / 1 tendon). Limit rows: obj = (joint id, side) for
+// joints, (tendon id, 2 + side) for tendons.
 #ifndef OSTRICH_CORE_OST_CONSTRAINT_H_
 #define OSTRICH_CORE_OST_CONSTRAINT_H_
 
@@ -22,7 +25,8 @@ typedef enum osttRow_ {           // kind of constraint row
   OST_ROW_LIMIT,                  // unilateral joint limit, FB(gap, lambda) = 0
   OST_ROW_CONTACT,                // unilateral contact normal, FB(gap, lambda) = 0
   OST_ROW_FRICTION,               // tangential: J_f u + W lambda_f = 0
-  OST_ROW_SERVO                   // implicit actuator: alpha*(lambda - force(q, u)) = 0
+  OST_ROW_SERVO,                  // implicit actuator: alpha*(lambda - force(q, u)) = 0
+  OST_ROW_DRY                     // dry friction (frictionloss): J u + c lambda = 0, |lambda| <= mu
 } osttRow;
 
 typedef struct ostRow_ {          // one constraint row                        (nrow x 1)
@@ -31,7 +35,8 @@ typedef struct ostRow_ {          // one constraint row                        (
   int    normal;                  // friction rows: index of the normal row; else -1
   ostNum key[3];                  // contact position (matching key); zero otherwise
   ostNum pos;                     // unilateral: gap (m); equality: violation; servo: force at u=0
-  ostNum mu;                      // contact: friction coefficient; servo: velocity gain b2 <= 0
+  ostNum mu;                      // contact: friction coefficient; servo: velocity gain b2 <= 0;
+                                  // dry: the frictionloss (force bound, N or N m)
   ostNum alpha;                   // servo: compliance 1/(kd + h kp); equality: compliance E
   ostNum lo;                      // servo: lower force limit (-HUGE_VAL if none)
   ostNum hi;                      // servo: upper force limit (+HUGE_VAL if none)
@@ -103,7 +108,8 @@ OST_HD void osti_servoRow(ostRow* r, int act, ostNum gain, const ostNum bias[3],
 
 
 // project the multipliers onto their admissible sets (paper section III-B safeguards):
-// lambda_n >= 0, |lambda_f| <= mu lambda_n (cone clamp), servo forces within forcerange
+// lambda_n >= 0, |lambda_f| <= mu lambda_n (cone clamp), servo forces within forcerange,
+// dry friction |lambda| <= frictionloss
 OST_HD void osti_projectRows(ostNum* lambda, const ostRow* rows, int nrow) {
   for (int i = 0; i < nrow; i++) {
     const ostRow* r = rows + i;
@@ -127,6 +133,9 @@ OST_HD void osti_projectRows(ostNum* lambda, const ostRow* rows, int nrow) {
           lambda[i + 2] *= scl;
         }
       }
+      break;
+    case OST_ROW_DRY:
+      lambda[i] = lambda[i] < -r->mu ? -r->mu : (lambda[i] > r->mu ? r->mu : lambda[i]);
       break;
     case OST_ROW_SERVO:
       if (lambda[i] < r->lo) {

@@ -75,6 +75,7 @@ typedef struct ostSizes_ {        // sizes of an ostModel
   X(int,    dof_parentid,     s.nv,          1)  /* parent dof (-1: none)                */    \
   X(ostNum, dof_armature,     s.nv,          1)  /* armature inertia                     */    \
   X(ostNum, dof_damping,      s.nv,          1)  /* damping (taken implicitly)           */    \
+  X(ostNum, dof_frictionloss, s.nv,          1)  /* dry friction bound (0: none)         */    \
   X(ostNum, qpos_spring,      s.nq,          1)  /* spring reference configuration       */    \
   /* geoms */                                                                                  \
   X(int,    geom_type,        s.ngeom,       1)  /* osttGeom                             */    \
@@ -134,6 +135,7 @@ typedef struct ostModel_ {        // Ostrich's model: sizes, options and pointer
 } ostModel;
 
 // disable bits read by core (mjtDisableBit values)
+#define OST_DSBL_FRICTIONLOSS (1 << 2)
 #define OST_DSBL_LIMIT     (1 << 3)
 #define OST_DSBL_CONTACT   (1 << 4)
 #define OST_DSBL_PASSIVE   (1 << 5)

@@ -1,11 +1,11 @@
 // ost_rows_native.h: the `native` geometry provider's rows (the portable twin of
 // plugin/ost_rows_mujoco.c; mirrors engine_core_constraint.c's mj_makeConstraint for joint
 // limits and contacts). At a Newton iterate q it runs core's kinematics, transmission and
-// collision, then packs the solver rows: joint limits, contacts (normal + two tangents in the
-// contact frame) and implicit servo rows. Also the explicit forces and the mass matrix of a
+// collision, then packs the solver rows: joint limits, dry friction, contacts (normal + two
+// tangents in the contact frame) and implicit servo rows. Also the explicit forces and the mass matrix of a
 // step's start, so that a whole step runs without MuJoCo (CPU batch and GPU).
-// Invariant: rows come in a deterministic order (limits by joint, contacts by candidate pair,
-// servos by actuator), so evaluating the same q twice yields identical rows.
+// Invariant: rows come in a deterministic order (limits by joint, dry friction by dof, contacts
+// by candidate pair, servos by actuator), so evaluating the same q twice yields identical rows.
 #ifndef OSTRICH_CORE_OST_ROWS_NATIVE_H_
 #define OSTRICH_CORE_OST_ROWS_NATIVE_H_
 
@@ -79,7 +79,8 @@ OST_HD ostNum osti_ctrl(const ostModel* m, const ostNum* ctrl, int i) {
 
 
 // the rows at configuration qpos (osti_kinematics, osti_comPos, osti_transmission ran at qpos):
-// joint limits within their margin, contacts from osti_collision, implicit servo rows.
+// joint limits within their margin, dof dry friction, contacts from osti_collision, implicit
+// servo rows.
 // lookahead: Ostrich's look-ahead distance, already added to the packed margins; a row's gap
 // is the user's (dist - margin + gap + lookahead). Returns OST_ROWS_* (0: ok).
 OST_HD int osti_nativeRows(const ostModel* m, ostKin* k, ostWorld* w, const ostNum* qpos,
@@ -116,6 +117,31 @@ OST_HD int osti_nativeRows(const ostModel* m, ostKin* k, ostWorld* w, const ostN
         }
         n++;
       }
+    }
+  }
+
+  // dry friction (frictionloss): one box-constrained row per dof, J = 1 on the dof (as
+  // MuJoCo's mjCNSTR_FRICTION_DOF rows, which exist whatever the state)
+  if (!(m->disableflags & OST_DSBL_FRICTIONLOSS)) {
+    for (int j = 0; j < nv; j++) {
+      if (!(m->dof_frictionloss[j] > 0)) {
+        continue;
+      }
+      if (n + 1 > w->nrow_max) {
+        return OST_ROWS_ROW_OVERFLOW;
+      }
+      ostRow* r = osti_newRow(w, n, OST_ROW_DRY);
+      r->obj[0] = j;
+      r->mu = m->dof_frictionloss[j];
+      ostNum* J = osti_rowScratch(w, n);
+      for (int c = 0; c < nv; c++) {
+        J[c] = 0;
+      }
+      J[j] = 1;
+      if (osti_rowStore(w, n, 1)) {
+        return OST_ROWS_WIDTH_OVERFLOW;
+      }
+      n++;
     }
   }
 

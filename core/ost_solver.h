@@ -517,6 +517,27 @@ OST_HD ostNum osti_frictionRows(ostWorld* w, int i, ostNum reg, ostNum creep) {
 }
 
 
+// row form of dry-friction row i (frictionloss; MuJoCo's mjCNSTR_FRICTION_DOF/_TENDON rows as
+// hard constraints): the one-dimensional case of osti_frictionRows with a fixed bound,
+//   G = lambda - clamp(z, -mu, mu),   z = lambda - (s + c_s lambda) / k_f,   s = J u,
+// k_f = h J Mt^-1 J' and c_s = reg k_f (no creep: a joint held by dry friction stays put at any
+// h). Stick (|z| <= mu): J du + c_s dlambda = -(s + c_s lambda); slide: the force is fixed at
+// the bound on the side of z. Returns the merit term k_f G (a velocity).
+OST_HD ostNum osti_dryRow(ostWorld* w, int i, ostNum reg) {
+  ostNum kf = w->h * w->diag[i], cs = reg * kf, lam = w->lambda[i], bound = w->rows[i].mu;
+  ostNum z = lam - (w->Ju[i] + cs * lam) / kf;
+  if (z >= -bound && z <= bound) {
+    w->c[i] = cs;
+    w->rho[i] = w->Ju[i] + cs * lam;
+    return w->rho[i];
+  }
+  ostNum m = kf * (lam - (z > 0 ? bound : -bound));
+  w->c[i] = kf * OST_FIXED_ROW;
+  w->rho[i] = m * OST_FIXED_ROW;
+  return m;
+}
+
+
 // evaluate the iterate (qvel, lambda) with the rows and J filled for q(qvel): fills
 // Minv_rdyn, diag, Ju and the row form (c, rho); returns the squared merit residual
 //   |Mt^-1 r_dyn|^2 + sum_i m_i^2,  every term a velocity (m/s or rad/s)
@@ -580,6 +601,9 @@ OST_HD ostNum osti_evaluate(ostWorld* w, const ostSolverOptions* opt) {
     }
     case OST_ROW_FRICTION:
       m_i = 0;  // filled with its contact row
+      break;
+    case OST_ROW_DRY:
+      m_i = osti_dryRow(w, i, opt->reg);
       break;
     case OST_ROW_SERVO: {
       // force = pos + b2 J u (q+ enters pos through the actuator length), clamped to

@@ -176,27 +176,6 @@ int ost_actuatorKind(const mjModel* m, int i, char* err, int err_sz) {
 
 void ost_refusalsModel(const mjModel* m, ostRefusalList* l) {
   char nb[64];
-  for (int j = 0; j < m->njnt; j++) {
-    // a ball or free joint has one frictionloss per dof; name the joint once
-    int adr = m->jnt_dofadr[j];
-    int ndof = m->jnt_type[j] == mjJNT_FREE ? 6 : m->jnt_type[j] == mjJNT_BALL ? 3 : 1;
-    for (int k = 0; k < ndof; k++) {
-      if (m->dof_frictionloss[adr + k] > 0) {
-        ost_refuse(l, "joint", ost_objName(m, mjOBJ_JOINT, j, nb, sizeof(nb)),
-                   "frictionloss (dry joint friction)");
-        break;
-      }
-    }
-  }
-  for (int i = 0; i < m->ntendon; i++) {
-    if (m->tendon_limited[i]) {
-      ost_refuse(l, "tendon", ost_objName(m, mjOBJ_TENDON, i, nb, sizeof(nb)), "limits");
-    }
-    if (m->tendon_frictionloss[i] > 0) {
-      ost_refuse(l, "tendon", ost_objName(m, mjOBJ_TENDON, i, nb, sizeof(nb)),
-                 "frictionloss (dry tendon friction)");
-    }
-  }
   for (int i = 0; i < m->ngeom; i++) {
     int cd = m->geom_condim[i];
     if (cd != 1 && cd != 3 && (m->geom_contype[i] || m->geom_conaffinity[i])) {

@@ -39,7 +39,9 @@ static void freeContext(ostContext* c) {
 
 
 int ost_rowCapacity(const mjModel* m) {
-  return 6 * m->neq + 2 * m->njnt + 3 * m->nconmax + m->nu;
+  // equality rows (weld: 6), two limit sides per joint and tendon, dry friction per dof and
+  // tendon, a contact's normal and two tangents, a servo per actuator
+  return 6 * m->neq + 2 * m->njnt + 3 * m->ntendon + m->nv + 3 * m->nconmax + m->nu;
 }
 
 

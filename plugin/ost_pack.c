@@ -349,6 +349,7 @@ int ost_packModel(const mjModel* m, int ncon_max, ostModel* om, void** block, ch
   COPY(om->dof_parentid, m->dof_parentid, s.nv);
   COPY(om->dof_armature, m->dof_armature, s.nv);
   COPY(om->dof_damping, m->dof_damping, s.nv);
+  COPY(om->dof_frictionloss, m->dof_frictionloss, s.nv);
   COPY(om->qpos_spring, m->qpos_spring, s.nq);
 
   // geoms

@@ -120,6 +120,15 @@ void ost_contactKey(const mjModel* m, const mjData* d, const mjContact* con, mjt
 }
 
 
+// 1 if efc row i (a tendon limit) is its tendon's lower limit: MuJoCo's lower-side distance
+// is L - lo, the upper side's hi - L (mj_instantiateLimit)
+static int tendonLowerSide(const mjModel* m, const mjData* d, int i) {
+  int t = d->efc_id[i];
+  mjtNum L = d->ten_length[t], lo = m->tendon_range[2 * t], hi = m->tendon_range[2 * t + 1];
+  return mju_abs(d->efc_pos[i] - (L - lo)) <= mju_abs(d->efc_pos[i] - (hi - L));
+}
+
+
 static int widthOverflow(ostContext* c) {
   return ost_fail(c, OST_ERR_OVERFLOW, "a constraint row touches more than %d dofs (the width "
                   "sized from the model's kinematic tree and tendons)", c->world.ncol);
@@ -275,10 +284,12 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
     return ost_fail(c, OST_ERR_OVERFLOW, "row capacity %d exceeded", w->nrow_max);     \
   }
 
-  // equality and joint-limit rows: MuJoCo's rows, whose J is d(efc_pos)/dq in tangent space
+  // equality, dry-friction and limit rows: MuJoCo's rows, whose J is d(efc_pos)/dq in tangent
+  // space (dry friction: the dof's unit row or the tendon's Jacobian)
   for (int i = 0, sub = 0; i < d->nefc; i++) {
     int type = d->efc_type[i];
-    if (type != mjCNSTR_EQUALITY && type != mjCNSTR_LIMIT_JOINT) {
+    if (type != mjCNSTR_EQUALITY && type != mjCNSTR_LIMIT_JOINT && type != mjCNSTR_LIMIT_TENDON
+        && type != mjCNSTR_FRICTION_DOF && type != mjCNSTR_FRICTION_TENDON) {
       continue;
     }
     NEED_ROWS(1);
@@ -295,11 +306,18 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
       r->obj[1] = sub;
       r->pos = d->efc_pos[i];
       r->alpha = c->opt.eq_compliance;
+    } else if (type == mjCNSTR_FRICTION_DOF || type == mjCNSTR_FRICTION_TENDON) {
+      r->type = OST_ROW_DRY;
+      r->obj[0] = d->efc_id[i];
+      r->obj[1] = type == mjCNSTR_FRICTION_TENDON;
+      r->mu = d->efc_frictionloss[i];
     } else {
-      // the private model's joint margin includes the look-ahead; the gap keeps the user's
+      // the private model's joint and tendon margins include the look-ahead; the gap keeps the
+      // user's. Side: J = +1 on the lower limit (efc_J = d(dist)/dq = dq/dq or dL/dq)
       r->type = OST_ROW_LIMIT;
       r->obj[0] = d->efc_id[i];
-      r->obj[1] = J[m->jnt_dofadr[d->efc_id[i]]] > 0;
+      r->obj[1] = type == mjCNSTR_LIMIT_JOINT ? J[m->jnt_dofadr[d->efc_id[i]]] > 0
+                                              : 2 + tendonLowerSide(m, d, i);
       r->pos = d->efc_pos[i] - d->efc_margin[i] + c->opt.margin;
     }
     if (osti_rowStore(w, n, 1)) {

@@ -87,6 +87,9 @@ void ost_setMargins(mjModel* mo, const mjModel* m, mjtNum lookahead) {
   for (int i = 0; i < mo->njnt; i++) {
     mo->jnt_margin[i] = m->jnt_margin[i] + lookahead;
   }
+  for (int i = 0; i < mo->ntendon; i++) {
+    mo->tendon_margin[i] = m->tendon_margin[i] + lookahead;
+  }
 }
 
 
@@ -271,14 +274,22 @@ static void publishForces(ostContext* c, const mjModel* m, mjData* d) {
       sub = (i > 0 && d->efc_type[i - 1] == mjCNSTR_EQUALITY && d->efc_id[i - 1] == d->efc_id[i])
             ? sub + 1 : 0;
       kind = OST_ROW_EQUALITY;
-    } else if (type == mjCNSTR_LIMIT_JOINT) {
+    } else if (type == mjCNSTR_LIMIT_JOINT || type == mjCNSTR_LIMIT_TENDON) {
       kind = OST_ROW_LIMIT;
+    } else if (type == mjCNSTR_FRICTION_DOF || type == mjCNSTR_FRICTION_TENDON) {
+      kind = OST_ROW_DRY;
     } else {
       continue;
     }
+    // the object class within a kind: equality sub-row; joint (side 0/1) or tendon (2 + side)
+    // limit; dof (0) or tendon (1) dry friction
+    int tendon = type == mjCNSTR_LIMIT_TENDON || type == mjCNSTR_FRICTION_TENDON;
     for (int r = 0; r < w->nrow; r++) {
-      if (!used[r] && w->rows[r].type == kind && w->rows[r].obj[0] == d->efc_id[i]
-          && (kind != OST_ROW_EQUALITY || w->rows[r].obj[1] == sub)) {
+      const ostRow* row = w->rows + r;
+      int match = kind == OST_ROW_EQUALITY ? row->obj[1] == sub
+                  : kind == OST_ROW_LIMIT  ? (row->obj[1] >= 2) == tendon
+                                           : row->obj[1] == tendon;
+      if (!used[r] && row->type == kind && row->obj[0] == d->efc_id[i] && match) {
         used[r] = 1;
         d->efc_force[i] = w->lambda[r];
         break;

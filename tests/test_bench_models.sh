@@ -2,7 +2,7 @@
 # test_bench_models.sh: end-to-end test of `ostrich bench models`
 # (plugin/cli/ost_cli_bench_models.c).
 # usage: bash tests/test_bench_models.sh PATH/TO/ostrich PATH/TO/mjcf_models PATH/TO/humanoid.xml
-# Runs two small models, a model Ostrich refuses (a joint with frictionloss) and --scaling 1,2 of
+# Runs two small models, a model Ostrich refuses (an actuator with a user gain) and --scaling 1,2 of
 # the humanoid, and checks the CSV: its columns, one row per engine and h, positive finite ratios,
 # converged shares in [0, 1], the refusal with its message (exit 0: a refusal is a result), the
 # scaling rows (nv 27 and 54) and both fits. Then: --max-wall stops runs and says so; a failed
@@ -60,10 +60,13 @@ cat >"$tmp/refused.xml" <<'EOF'
 <mujoco model="refused">
   <worldbody>
     <body>
-      <joint name="hinge" type="hinge" axis="0 1 0" frictionloss="0.1"/>
+      <joint name="hinge" type="hinge" axis="0 1 0"/>
       <geom type="capsule" fromto="0 0 0 0 0 -0.5" size="0.05"/>
     </body>
   </worldbody>
+  <actuator>
+    <general joint="hinge" gaintype="user"/>
+  </actuator>
 </mujoco>
 EOF
 
@@ -98,7 +101,7 @@ expect_csv "converged shares in [0, 1]" \
        and r["engine"] == "ostrich" and r["status"] == "ok")'
 expect_csv "the refused model: mujoco measured, ostrich refused with the feature named" \
   '[(r["engine"], r["status"]) for r in rows[8:10]] == [("mujoco", "ok"), ("ostrich", "refused")]
-   and "frictionloss" in rows[9]["message"]'
+   and "gaintype user" in rows[9]["message"]'
 expect_csv "scaling: 1 and 2 humanoids (nv 27, 54), both engines at the same h" \
   '[(r["copies"], r["nv"], r["engine"]) for r in rows[10:14]] == [("1", "27", "mujoco"),
    ("1", "27", "ostrich"), ("2", "54", "mujoco"), ("2", "54", "ostrich")]
@@ -106,7 +109,7 @@ expect_csv "scaling: 1 and 2 humanoids (nv 27, 54), both engines at the same h" 
 expect_csv "fits: a finite slope for each engine" \
   '[r["engine"] for r in rows[14:]] == ["mujoco", "ostrich"]
    and all(math.isfinite(num(r["slope"])) for r in rows[14:])'
-if grep -q "refused by Ostrich: .*frictionloss" "$tmp/out" && grep -q "^fit of log" "$tmp/out"; then
+if grep -q "refused by Ostrich: .*gaintype user" "$tmp/out" && grep -q "^fit of log" "$tmp/out"; then
   pass "the table names the refusal and prints the fit"
 else
   fail "the table should name the refusal and print the fit"

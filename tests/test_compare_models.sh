@@ -125,13 +125,13 @@ run)
 refused)
   csv=$tmp/models.csv
   printf '<mujoco><worldbody><body></worldbody></mujoco>\n' >"$tmp/malformed.xml"
-  run compare models "$TEST_MODELS/unsupported_frictionloss.xml" "$tmp/malformed.xml" \
+  run compare models "$TEST_MODELS/unsupported_user_gain.xml" "$tmp/malformed.xml" \
     "$MODELS/cartpole.xml" --duration 0.1 --h-scale 1 --csv "$csv"
   expect_rc 0 "refused: a refusal and a load failure are results, not failures"
   expect_py "refused: the refused model is one row with ost_checkModel's reason" \
-    'len([r for r in rows if r["model"] == "unsupported_frictionloss"]) == 1 and
-     [(r["engine"], r["status"]) for r in rows if r["model"] == "unsupported_frictionloss"] ==
-     [("ostrich", "refused")] and "frictionloss" in rows[0]["reason"]' "$csv"
+    'len([r for r in rows if r["model"] == "unsupported_user_gain"]) == 1 and
+     [(r["engine"], r["status"]) for r in rows if r["model"] == "unsupported_user_gain"] ==
+     [("ostrich", "refused")] and "gaintype user" in rows[0]["reason"]' "$csv"
   expect_py "refused: the malformed model is a load failure with MuJoCo's message" \
     '[(r["engine"], r["status"]) for r in rows if r["model"] == "malformed"] ==
      [("mujoco", "load_failed")] and
@@ -140,7 +140,7 @@ refused)
     'len([r for r in rows if r["model"] == "cartpole" and r["status"] == "ok"]) == 4' "$csv"
   expect_py "refused: the summary ranks the refusal reason" \
     '"1 refused by Ostrich, 1 failed to load" in out and
-     any(l.strip().startswith("1 ") and "frictionloss" in l for l in
+     any(l.strip().startswith("1 ") and "gaintype user" in l for l in
          out.split("refusal reasons")[1].splitlines())' "$csv"
   # 20 resting spheres with room for 5 contacts: Ostrich's step fails (capacity), which an
   # accepted model must not do, so the exit status says so

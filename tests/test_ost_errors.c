@@ -11,16 +11,16 @@
 START_TEST(test_unsupportedFeature) {
   ost_fixtureSetup();
   char path[1024];
-  snprintf(path, sizeof(path), "%s/../tests/models/unsupported_frictionloss.xml", OST_MODEL_DIR);
+  snprintf(path, sizeof(path), "%s/../tests/models/unsupported_user_gain.xml", OST_MODEL_DIR);
   char err[1000];
   mjModel* m = mj_loadXML(path, NULL, err, sizeof(err));
   ck_assert_ptr_nonnull(m);
   ck_assert_int_eq(ost_checkModel(m, err, sizeof(err)), OST_ERR_MODEL);
-  ck_assert_ptr_nonnull(strstr(err, "frictionloss"));
+  ck_assert_ptr_nonnull(strstr(err, "gaintype user"));
   mjData* d = mj_makeData(m);
   double q0 = d->qpos[0];
   ck_assert_int_eq(ost_step(m, d), OST_ERR_MODEL);
-  ck_assert_ptr_nonnull(strstr(ost_lastError(d), "frictionloss"));
+  ck_assert_ptr_nonnull(strstr(ost_lastError(d), "gaintype user"));
   ck_assert_double_eq(d->qpos[0], q0);
   ck_assert_double_eq(d->time, 0);
   ost_deleteData(d);
@@ -36,7 +36,7 @@ START_TEST(test_unsupportedFeature) {
 END_TEST
 
 // a model with three unsupported features gets all three in one refusal, grouped per feature
-// (the frictionloss of both hinges is one entry), as a message and as ostRefusal records; a
+// (the user gain of both actuators is one entry), as a message and as ostRefusal records; a
 // message that does not fit ends cleanly with "... and K more"
 START_TEST(test_everyUnsupportedFeature) {
   ost_fixtureSetup();
@@ -46,9 +46,9 @@ START_TEST(test_everyUnsupportedFeature) {
   mjModel* m = mj_loadXML(path, NULL, err, sizeof(err));
   ck_assert_ptr_nonnull(m);
   ck_assert_int_eq(ost_checkModel(m, err, sizeof(err)), OST_ERR_MODEL);
-  const char* want[] = {"(3 features)", "2 joints ('shoulder', 'elbow'): frictionloss",
-                        "tendon 'coupling': limits",
-                        "actuator 'slow_motor': activation dynamics (dyntype filter)"};
+  const char* want[] = {"(3 features)", "contact pair 'rub': anisotropic friction",
+                        "2 actuators ('shoulder_user', 'elbow_user'): a non-fixed gain",
+                        "actuator 'grip': a body (adhesion) transmission"};
   for (int i = 0; i < 4; i++) {
     ck_assert_msg(strstr(err, want[i]), "'%s' not in: %s", want[i], err);
   }
@@ -56,14 +56,15 @@ START_TEST(test_everyUnsupportedFeature) {
   // the records: one per feature, in the order of the message
   ostRefusal r[4];
   ck_assert_int_eq(ost_checkModelList(m, r, 4), 3);
-  ck_assert_str_eq(r[0].what, "joint");
-  ck_assert_int_eq(r[0].count, 2);
-  ck_assert_str_eq(r[0].name[0], "shoulder");
-  ck_assert_str_eq(r[0].name[1], "elbow");
-  ck_assert_str_eq(r[1].what, "tendon");
-  ck_assert_str_eq(r[1].name[0], "coupling");
+  ck_assert_str_eq(r[0].what, "contact pair");
+  ck_assert_str_eq(r[0].name[0], "rub");
+  ck_assert_str_eq(r[1].what, "actuator");
+  ck_assert_int_eq(r[1].count, 2);
+  ck_assert_str_eq(r[1].name[0], "shoulder_user");
+  ck_assert_str_eq(r[1].name[1], "elbow_user");
   ck_assert_str_eq(r[2].what, "actuator");
-  ck_assert_ptr_nonnull(strstr(r[2].feature, "dyntype filter"));
+  ck_assert_str_eq(r[2].name[0], "grip");
+  ck_assert_ptr_nonnull(strstr(r[2].feature, "adhesion"));
   ck_assert_int_eq(ost_checkModelList(m, r, 1), 3);  // counted beyond nout
   ck_assert_int_eq(ost_checkModelList(NULL, r, 1), -1);
 
@@ -79,16 +80,17 @@ START_TEST(test_everyUnsupportedFeature) {
   ck_assert_str_eq(ost_lastError(d), err);
   ost_deleteData(d);
 
-  // the native provider adds its own refusal of the tendon (native has no tendons)
+  // the native provider adds its own refusals of the tendon (native has no tendons) and of the
+  // body transmission
   o.geometry = OST_GEOMETRY_NATIVE;
   ck_assert_int_eq(ost_checkStep(m, &o, step_err, sizeof(step_err)), OST_ERR_MODEL);
-  ck_assert_msg(strstr(step_err, "(4 features)") && strstr(step_err, "tendons, which the native"),
+  ck_assert_msg(strstr(step_err, "(5 features)") && strstr(step_err, "tendons, which the native"),
                 "%s", step_err);
 
   // a short buffer: whole entries, then "... and K more", never a cut entry
   char small[140];
   ck_assert_int_eq(ost_checkModel(m, small, sizeof(small)), OST_ERR_MODEL);
-  ck_assert_msg(strstr(small, "frictionloss") && strstr(small, "; ... and 2 more"), "%s", small);
+  ck_assert_msg(strstr(small, "anisotropic") && strstr(small, "; ... and 2 more"), "%s", small);
   ck_assert_int_lt(strlen(small), sizeof(small));
   char tiny[64];
   ck_assert_int_eq(ost_checkModel(m, tiny, sizeof(tiny)), OST_ERR_MODEL);

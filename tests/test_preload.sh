@@ -84,10 +84,10 @@ assert_silent() {
 }
 
 BOX="$MODELS/box_plane.xml"
-FRICTIONLOSS="$MODELS/../tests/models/unsupported_frictionloss.xml"
+REFUSED="$MODELS/../tests/models/unsupported_user_gain.xml"
 HUMANOID=/usr/share/mujoco/model/humanoid/humanoid.xml
 [[ -f "$BOX" ]] || fail "model '$BOX' not found"
-[[ -f "$FRICTIONLOSS" ]] || fail "model '$FRICTIONLOSS' not found"
+[[ -f "$REFUSED" ]] || fail "model '$REFUSED' not found"
 
 # (a) box on a plane under the preload: banner, summary, testspeed report
 run a "$PRELOAD" "" "$BOX" 200 1
@@ -111,10 +111,10 @@ assert_ran c 200
 assert_silent c
 
 # (d) an unsupported feature: refused by name, stepped by stock MuJoCo
-run d "$PRELOAD" "" "$FRICTIONLOSS" 200 1
+run d "$PRELOAD" "" "$REFUSED" 200 1
 assert_ran d 200
-grep -q '^ostrich: refusing model .*frictionloss' "$WORK/d.err" \
-  || fail "(d) no 'refusing ... frictionloss' message on stderr"
+grep -q '^ostrich: refusing model .*gaintype user' "$WORK/d.err" \
+  || fail "(d) no 'refusing ... gaintype user' message on stderr"
 [[ $(grep -c 'refusing' "$WORK/d.err") -eq 1 ]] || fail "(d) refusal printed more than once"
 assert_silent d
 
