@@ -378,23 +378,31 @@ OST_HD void osti_stepResidual(ostWorld* w, const ostNum* u, const ostNum* lambda
       break;
     }
     case OST_ROW_FRICTION: {
-      // both tangents at the first friction row of the contact (Alart-Curnier, as
-      // osti_frictionRows): G = lambda_f - proj(z), scaled by k_f to a velocity
+      // all friction rows at the first of the contact (Alart-Curnier, as osti_frictionRows):
+      // G = lambda_f - proj(z), scaled by k_f to a velocity
       if (i == 0 || w->rows[i - 1].type != OST_ROW_CONTACT) {
         break;
       }
-      int n = i - 1, b = i + 1;
-      ostNum kf = h * 0.5 * (w->diag[i] + w->diag[b]), cs = reg * kf + creep;
+      int n = i - 1, nf = osti_frictionCount(w->rows, nrow, n);
+      ostNum kf = 0;
+      for (int k = 0; k < nf; k++) {
+        kf += w->diag[i + k];
+      }
+      kf = h * kf / nf;
+      ostNum cs = reg * kf + creep;
       ostNum bound = w->rows[n].mu * (lambda[n] > 0 ? lambda[n] : 0);
-      ostNum z1 = lam - (w->Ju[i] + cs * lam) / kf;
-      ostNum z2 = lambda[b] - (w->Ju[b] + cs * lambda[b]) / kf;
-      ostNum zn2 = z1 * z1 + z2 * z2;
+      ostNum z[OST_MAXFRIC], zn2 = 0;
+      for (int k = 0; k < nf; k++) {
+        z[k] = lambda[i + k] - (w->Ju[i + k] + cs * lambda[i + k]) / kf;
+        zn2 += z[k] * z[k];
+      }
       ostNum scl = 1;
       if (zn2 > bound * bound) {
         scl = bound / sqrt(zn2);
       }
-      r[i] = kf * (lam - scl * z1);
-      r[b] = kf * (lambda[b] - scl * z2);
+      for (int k = 0; k < nf; k++) {
+        r[i + k] = kf * (lambda[i + k] - scl * z[k]);
+      }
       break;
     }
     case OST_ROW_DRY: {

@@ -4,8 +4,14 @@
 // sets, and the matching of multipliers across Newton iterates whose contact sets differ.
 //
 // Row layout contract: a contact contributes one OST_ROW_CONTACT (normal) row, immediately
-// followed by its two OST_ROW_FRICTION rows when it has friction (condim 3). A friction row
-// stores the index of its normal row in `normal`. Units: every row's residual is a velocity.
+// followed by its OST_ROW_FRICTION rows when it has friction: two tangents (condim 3), then the
+// torsional row (condim 4) and the two rolling rows (condim 6), each only where its coefficient
+// is positive (OST_MAXFRIC rows at most). A friction row stores the index of its normal row in
+// `normal`. Friction rows are normalized so that one circular cone |lambda_f| <= mu lambda_n
+// holds MuJoCo's elliptic cone sum_k (force_k / mu_k)^2 <= lambda_n^2: row k's Jacobian is
+// scaled by s_k = mu_k / mu (1 for the tangents; metres for torsion and rolling, which makes
+// every row a velocity) and its force is s_k lambda_k. Units: every row's residual is a
+// velocity.
 // Dry-friction rows (frictionloss) are box-constrained: |lambda| <= mu, one row per dof or
 // tendon, obj = (dof or tendon id, 0 dof / 1 tendon). Limit rows: obj = (joint id, side) for
 // joints, (tendon id, 2 + side) for tendons.
@@ -13,6 +19,7 @@
 #define OSTRICH_CORE_OST_CONSTRAINT_H_
 
 #include <math.h>
+#include <stddef.h>
 
 #include "ost_hd.h"
 
@@ -37,8 +44,11 @@ typedef struct ostRow_ {          // one constraint row                        (
   ostNum pos;                     // unilateral: gap (m); equality: violation; servo: force at u=0
   ostNum mu;                      // contact: friction coefficient; servo: velocity gain b2 <= 0;
                                   // dry: the frictionloss (force bound, N or N m)
-  ostNum alpha;                   // servo: compliance 1/(kd + h kp); equality: compliance E
-  ostNum lo;                      // servo: lower force limit (-HUGE_VAL if none)
+  ostNum alpha;                   // servo: compliance 1/(kd + h kp); equality: compliance E;
+                                  // friction: the row's scale s_k = mu_k / mu
+  ostNum lo;                      // servo: lower force limit (-HUGE_VAL if none); friction:
+                                  // the slot in MuJoCo's contact frame (1, 2 sliding, 3
+                                  // torsional, 4, 5 rolling)
   ostNum hi;                      // servo: upper force limit (+HUGE_VAL if none)
 } ostRow;
 
@@ -46,6 +56,20 @@ typedef struct ostRow_ {          // one constraint row                        (
 OST_STATIC_ASSERT(sizeof(ostRow) == 4 * sizeof(int) + 8 * sizeof(ostNum),
                   "ostRow crosses the gcc/nvcc boundary: keep it unpadded");
 #endif
+
+
+#define OST_MAXFRIC 5              // friction rows of one contact at most (condim 6)
+
+
+// number of friction rows that follow contact row i (0 if none or row i is not a contact)
+OST_HD int osti_frictionCount(const ostRow* rows, int nrow, int i) {
+  int n = 0;
+  while (i + n + 1 < nrow && rows[i + n + 1].type == OST_ROW_FRICTION
+         && rows[i + n + 1].normal == i) {
+    n++;
+  }
+  return rows[i].type == OST_ROW_CONTACT ? n : 0;
+}
 
 
 // smoothed Fischer-Burmeister function phi(a,b) = a + b - sqrt(a^2 + b^2 + eps^2) and its
@@ -89,6 +113,52 @@ OST_HD void osti_contactKeyOf(ostNum key[3], const ostNum pos[3], const ostNum x
 }
 
 
+// the friction rows of a contact from the translational Jacobians j1, j2 and rotational
+// Jacobians r1, r2 (3 x nv each, r1, r2 may be NULL when only the tangents are asked for) of
+// its two bodies: the rows of the slots (1 t1, 2 t2, 3 torsion, 4, 5 rolling; MuJoCo's contact
+// frame times J(body2) - J(body1)) given in slot[0..nf-1], each times its scale s_k, into J
+// (nf rows apart by nv)
+OST_HD void osti_frictionJacobian(const ostNum frame[9], const ostNum* j1, const ostNum* j2,
+                                  const ostNum* r1, const ostNum* r2, int nv, int nf,
+                                  const int* slot, const ostNum* scale, ostNum* J) {
+  for (int f = 0; f < nf; f++) {
+    // slot 1, 2: tangent rows of the translational difference; 3: normal row, 4, 5: tangent
+    // rows of the rotational difference
+    int ang = slot[f] >= 3;
+    const ostNum* a = ang ? r1 : j1;
+    const ostNum* b = ang ? r2 : j2;
+    const ostNum* e = frame + 3 * (slot[f] == 3 ? 0 : (slot[f] == 1 || slot[f] == 4 ? 1 : 2));
+    ostNum* Jf = J + (size_t)f * nv;
+    for (int j = 0; j < nv; j++) {
+      ostNum dx = b[j] - a[j], dy = b[nv + j] - a[nv + j], dz = b[2 * nv + j] - a[2 * nv + j];
+      Jf[j] = scale[f] * (e[0] * dx + e[1] * dy + e[2] * dz);
+    }
+  }
+}
+
+
+// the friction rows of a contact with condim, sliding, torsional and rolling coefficients mu,
+// mu_tor, mu_roll: their slots and scales (see the row layout contract); returns their number
+// (0: frictionless)
+OST_HD int osti_frictionSlots(int condim, ostNum mu, ostNum mu_tor, ostNum mu_roll, int* slot,
+                              ostNum* scale) {
+  if (condim < 3 || !(mu > 0)) {
+    return 0;
+  }
+  int nf = 0;
+  for (int k = 1; k <= OST_MAXFRIC; k++) {
+    ostNum c = k <= 2 ? mu : (k == 3 ? mu_tor : mu_roll);
+    if ((k == 3 && condim < 4) || (k > 3 && condim < 6) || !(c > 0)) {
+      continue;
+    }
+    slot[nf] = k;
+    scale[nf] = k <= 2 ? 1 : c / mu;
+    nf++;
+  }
+  return nf;
+}
+
+
 // the implicit servo row of actuator act (eq. 8): force = g ctrl + b0 + b1 L(q) + b2 V with
 // V = moment u, compliance 1 / (kd + h kp) where kp = -b1, kd = -b2; ctrl already clamped;
 // the force is limited to range when forcelimited. The caller fills the row's Jacobian (moment).
@@ -119,21 +189,27 @@ OST_HD void osti_projectRows(ostNum* lambda, const ostRow* rows, int nrow) {
         lambda[i] = 0;
       }
       break;
-    case OST_ROW_CONTACT:
+    case OST_ROW_CONTACT: {
       if (lambda[i] < 0) {
         lambda[i] = 0;
       }
       // the friction rows of this contact follow it
-      if (i + 2 < nrow && rows[i + 1].type == OST_ROW_FRICTION && rows[i + 1].normal == i) {
-        ostNum bound = r->mu * lambda[i];
-        ostNum t = sqrt(lambda[i + 1] * lambda[i + 1] + lambda[i + 2] * lambda[i + 2]);
+      int nf = osti_frictionCount(rows, nrow, i);
+      if (nf) {
+        ostNum bound = r->mu * lambda[i], t2 = 0;
+        for (int k = 1; k <= nf; k++) {
+          t2 += lambda[i + k] * lambda[i + k];
+        }
+        ostNum t = sqrt(t2);
         if (t > bound) {
           ostNum scl = t > 0 ? bound / t : 0;
-          lambda[i + 1] *= scl;
-          lambda[i + 2] *= scl;
+          for (int k = 1; k <= nf; k++) {
+            lambda[i + k] *= scl;
+          }
         }
       }
       break;
+    }
     case OST_ROW_DRY:
       lambda[i] = lambda[i] < -r->mu ? -r->mu : (lambda[i] > r->mu ? r->mu : lambda[i]);
       break;
@@ -166,10 +242,11 @@ OST_HD void osti_takeMatch(ostNum* lambda, const ostRow* rows, int nrow, int i,
                            unsigned char* used, int best) {
   used[best] = 1;
   lambda[i] = prev_lambda[best];
-  if (rows[i].type == OST_ROW_CONTACT && i + 2 < nrow && rows[i + 1].type == OST_ROW_FRICTION
-      && best + 2 < nprev && prev[best + 1].type == OST_ROW_FRICTION) {
-    lambda[i + 1] = prev_lambda[best + 1];
-    lambda[i + 2] = prev_lambda[best + 2];
+  int nf = osti_frictionCount(rows, nrow, i);
+  if (nf && nf == osti_frictionCount(prev, nprev, best)) {
+    for (int k = 1; k <= nf; k++) {
+      lambda[i + k] = prev_lambda[best + k];
+    }
   }
 }
 

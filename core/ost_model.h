@@ -90,10 +90,12 @@ typedef struct ostSizes_ {        // sizes of an ostModel
   /* parent-child, welded bodies, explicit <pair>); margins include Ostrich's look-ahead  */   \
   X(int,    pair_geom1,       s.npair,       1)  /* first geom (lower type, as MuJoCo)   */    \
   X(int,    pair_geom2,       s.npair,       1)  /* second geom                          */    \
-  X(int,    pair_condim,      s.npair,       1)  /* 1 frictionless, 3 with friction      */    \
+  X(int,    pair_condim,      s.npair,       1)  /* 1, 3, 4 or 6 (MuJoCo's condim)       */    \
   X(ostNum, pair_margin,      s.npair,       1)  /* detection margin (m)                 */    \
   X(ostNum, pair_gap,         s.npair,       1)  /* gap: contact starts at margin - gap  */    \
   X(ostNum, pair_friction,    s.npair,       1)  /* sliding friction coefficient         */    \
+  X(ostNum, pair_torsion,     s.npair,       1)  /* torsional coefficient (m; condim 4+) */    \
+  X(ostNum, pair_rolling,     s.npair,       1)  /* rolling coefficient (m; condim 6)    */    \
   /* meshes (convex: hull vertices; terrain: vertices, faces and an xy grid)              */   \
   X(int,    mesh_vertadr,     s.nmesh,       1)  /* first vertex                         */    \
   X(int,    mesh_vertnum,     s.nmesh,       1)  /* number of vertices                   */    \

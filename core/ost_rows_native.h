@@ -39,10 +39,12 @@ OST_HD void osti_contactKey(const ostModel* m, const ostKin* k, int i, ostNum ke
 }
 
 
-// rows n, t1, t2 of contact i: frame rows times (J(body2) - J(body1)) at the contact point;
-// returns 0 if the contact moves no degree of freedom
-OST_HD int osti_contactJacobian(const ostModel* m, ostKin* k, int i, ostNum* Jn, ostNum* Jt1,
-                                ostNum* Jt2) {
+// the rows of contact i into J (rows apart by nv): the normal, then its nf friction rows of the
+// given slots and scales (osti_frictionSlots): frame rows times (J(body2) - J(body1)) at the
+// contact point, rotational Jacobians for torsion and rolling; returns 0 if the contact moves
+// no degree of freedom
+OST_HD int osti_contactJacobian(const ostModel* m, ostKin* k, int i, int nf, const int* slot,
+                                const ostNum* scale, ostNum* J) {
   int nv = m->s.nv, p = k->contact_pair[i];
   const ostContact* con = k->contact + i;
   int b1 = m->geom_bodyid[m->pair_geom1[p]], b2 = m->geom_bodyid[m->pair_geom2[p]];
@@ -53,7 +55,24 @@ OST_HD int osti_contactJacobian(const ostModel* m, ostKin* k, int i, ostNum* Jn,
   }
   if (b1 > 0) osti_jac(m, k, j1, NULL, con->pos, b1);
   if (b2 > 0) osti_jac(m, k, j2, NULL, con->pos, b2);
-  return osti_contactRows(con->frame, j1, j2, nv, Jn, Jt1, Jt2);
+  // the normal and the sliding rows, then (a second pass through the same scratch) the
+  // torsional and rolling rows of the rotational Jacobians
+  int ntr = 0;
+  while (ntr < nf && slot[ntr] <= 2) {
+    ntr++;
+  }
+  int any = osti_contactRows(con->frame, j1, j2, nv, J, NULL, NULL);
+  osti_frictionJacobian(con->frame, j1, j2, NULL, NULL, nv, ntr, slot, scale, J + nv);
+  if (nf > ntr) {
+    for (int j = 0; j < 6 * nv; j++) {
+      k->jac[j] = 0;
+    }
+    if (b1 > 0) osti_jac(m, k, NULL, j1, con->pos, b1);
+    if (b2 > 0) osti_jac(m, k, NULL, j2, con->pos, b2);
+    osti_frictionJacobian(con->frame, NULL, NULL, j1, j2, nv, nf - ntr, slot + ntr, scale + ntr,
+                          J + (size_t)(1 + ntr) * nv);
+  }
+  return any;
 }
 
 
@@ -145,8 +164,8 @@ OST_HD int osti_nativeRows(const ostModel* m, ostKin* k, ostWorld* w, const ostN
     }
   }
 
-  // contacts: normal then two tangents in the contact frame (frame[0:3] from geom1 to geom2,
-  // so J_n u > 0 separates)
+  // contacts: normal then its friction rows in the contact frame (frame[0:3] from geom1 to
+  // geom2, so J_n u > 0 separates)
   osti_collision(m, k);
   if (k->overflow) {
     return OST_ROWS_CONTACT_OVERFLOW;
@@ -154,20 +173,22 @@ OST_HD int osti_nativeRows(const ostModel* m, ostKin* k, ostWorld* w, const ostN
   for (int i = 0; i < k->ncon; i++) {
     int p = k->contact_pair[i];
     ostNum mu = m->pair_friction[p];
-    int fric = m->pair_condim[p] >= 3 && mu > 0;
-    if (n + (fric ? 3 : 1) > w->nrow_max) {
+    int slot[OST_MAXFRIC];
+    ostNum scale[OST_MAXFRIC];
+    int nf = osti_frictionSlots(m->pair_condim[p], mu, m->pair_torsion[p], m->pair_rolling[p],
+                                slot, scale);
+    if (n + 1 + nf > w->nrow_max) {
       return OST_ROWS_ROW_OVERFLOW;
     }
-    ostNum* Jn = osti_rowScratch(w, n);
-    if (!osti_contactJacobian(m, k, i, Jn, fric ? Jn + nv : NULL, fric ? Jn + 2 * nv : NULL)) {
+    if (!osti_contactJacobian(m, k, i, nf, slot, scale, osti_rowScratch(w, n))) {
       continue;
     }
-    if (osti_rowStore(w, n, fric ? 3 : 1)) {
+    if (osti_rowStore(w, n, 1 + nf)) {
       return OST_ROWS_WIDTH_OVERFLOW;
     }
     ostNum key[3];
     osti_contactKey(m, k, i, key);
-    for (int c = 0; c < (fric ? 3 : 1); c++) {
+    for (int c = 0; c <= nf; c++) {
       ostRow* r = osti_newRow(w, n + c, c == 0 ? OST_ROW_CONTACT : OST_ROW_FRICTION);
       r->normal = c == 0 ? -1 : n;
       r->obj[0] = m->pair_geom1[p];
@@ -177,8 +198,12 @@ OST_HD int osti_nativeRows(const ostModel* m, ostKin* k, ostWorld* w, const ostN
       r->key[2] = key[2];
       r->pos = k->contact[i].dist - (m->pair_margin[p] - m->pair_gap[p]) + lookahead;
       r->mu = mu;
+      if (c > 0) {
+        r->alpha = scale[c - 1];
+        r->lo = slot[c - 1];
+      }
     }
-    n += fric ? 3 : 1;
+    n += 1 + nf;
   }
 
   // implicit servo rows: force = g ctrl + b0 + b1 L(q) + b2 V, V = moment u          (eq. 8)

@@ -99,7 +99,7 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNu
   X(ostRow, rows_relax, OST_SOLVER_ROWS(nrow_max), 1) /* violations kept this step (relax) */     \
   X(int, Jnnz, OST_SOLVER_ROWS(nrow_max), 1) /* columns in row i's pattern (osti_rowStore)  */   \
   X(int, Jind, OST_SOLVER_ROWS(nrow_max), ncol) /* their indices, ascending                  */   \
-  X(ostNum, Jrow, OST_SOLVER_ROWS(3), nv)    /* dense rows a provider writes (osti_rowScratch) */ \
+  X(ostNum, Jrow, OST_SOLVER_ROWS(1 + OST_MAXFRIC), nv) /* dense rows a provider writes */ \
   X(unsigned char, colmark, OST_SOLVER_ROWS(nv), 1) /* pattern scratch, all zero between calls */ \
   X(ostNum, merit_row, OST_SOLVER_ROWS(nrow_max), 2) /* row i's squared merit terms (friction, own) */ \
   X(ostNum, xloc, OST_SOLVER_ROWS(nrow_max), 2) /* an island's Schur right-hand side, solution */ \
@@ -235,10 +235,10 @@ OST_HD void osti_massSolve(const ostWorld* w, ostNum* x) {
 // the dof tree's parent map when M is factored as a tree, so that L^-T J_i' stays within it,
 // ost_util_tree.h) and the values there, at most ncol of them. The rows of one contact share
 // one pattern, since the friction rows are rotated into each other. A provider writes up to
-// three dense rows into osti_rowScratch and stores them with osti_rowStore. A world without
-// pattern arrays (the adjoint's residual evaluation) keeps dense rows of nv.
+// 1 + OST_MAXFRIC dense rows into osti_rowScratch and stores them with osti_rowStore. A world
+// without pattern arrays (the adjoint's residual evaluation) keeps dense rows of nv.
 
-// dense rows for row n (three consecutive, nv each) that the provider fills
+// dense rows for row n (1 + OST_MAXFRIC consecutive, nv each) that the provider fills
 OST_HD ostNum* osti_rowScratch(ostWorld* w, int n) {
   return w->Jnnz ? w->Jrow : w->J + (size_t)n * w->nv;
 }
@@ -446,74 +446,129 @@ OST_HD void osti_rowDiag(ostWorld* w, int i) {
 }
 
 
-// rotate rows a, b of J by the unit vector (e1, e2): a <- e1 a + e2 b, b <- -e2 a + e1 b
-OST_HD void osti_rotateRows(ostNum* a, ostNum* b, ostNum e1, ostNum e2, int n) {
-  for (int j = 0; j < n; j++) {
-    ostNum x = a[j], y = b[j];
-    a[j] = e1 * x + e2 * y;
-    b[j] = -e2 * x + e1 * y;
+// the Householder reflection H = I - beta v v' that maps the unit vector e (n <= OST_MAXFRIC)
+// onto the first axis: H e = e_1, H = H' = H^-1. v = e - e_1, its first entry computed without
+// cancellation (e_1 - 1 = -sum_{k>1} e_k^2 / (1 + e_1) when e_1 > 0). Fills H (n x n).
+OST_HD void osti_householder(ostNum* H, const ostNum* e, int n) {
+  ostNum v[OST_MAXFRIC], sigma = 0;
+  for (int k = 1; k < n; k++) {
+    v[k] = e[k];
+    sigma += e[k] * e[k];
+  }
+  v[0] = e[0] > 0 ? -sigma / (1 + e[0]) : e[0] - 1;
+  ostNum vv = v[0] * v[0] + sigma;
+  ostNum beta = vv > 0 ? 2 / vv : 0;
+  for (int r = 0; r < n; r++) {
+    for (int k = 0; k < n; k++) {
+      H[r * n + k] = (r == k) - beta * v[r] * v[k];
+    }
   }
 }
 
 
-// rotate friction rows a, a+1 (one pattern) by the unit vector (e1, e2), as osti_rotateRows
-OST_HD void osti_rotateFriction(ostWorld* w, int a, ostNum e1, ostNum e2) {
-  int len = w->Jnnz ? w->ncol : w->nv;  // stored row length
-  ostNum* A = w->J + (size_t)a * len;
-  osti_rotateRows(A, A + len, e1, e2, w->Jnnz ? w->Jnnz[a] : w->nv);
+// x <- H x for the n-vector x (stride 1)
+OST_HD void osti_reflect(ostNum* x, const ostNum* H, int n) {
+  ostNum y[OST_MAXFRIC];
+  for (int r = 0; r < n; r++) {
+    y[r] = 0;
+    for (int k = 0; k < n; k++) {
+      y[r] += H[r * n + k] * x[k];
+    }
+  }
+  for (int r = 0; r < n; r++) {
+    x[r] = y[r];
+  }
 }
 
 
-// row forms of the two friction rows i+1, i+2 of contact i (paper eq. 5-7), Coulomb friction by
-// maximal dissipation written as Alart-Curnier's semismooth equation
+// rows a .. a+n-1 of J (one shared pattern) <- H times them, column by column
+OST_HD void osti_reflectFriction(ostWorld* w, int a, int n, const ostNum* H) {
+  int len = w->Jnnz ? w->ncol : w->nv;  // stored row length
+  int cnt = w->Jnnz ? w->Jnnz[a] : w->nv;
+  ostNum* A = w->J + (size_t)a * len;
+  for (int j = 0; j < cnt; j++) {
+    ostNum x[OST_MAXFRIC];
+    for (int k = 0; k < n; k++) {
+      x[k] = A[(size_t)k * len + j];
+    }
+    osti_reflect(x, H, n);
+    for (int k = 0; k < n; k++) {
+      A[(size_t)k * len + j] = x[k];
+    }
+  }
+}
+
+
+// row forms of the nf friction rows i+1 .. i+nf of contact i (paper eq. 5-7), Coulomb friction
+// by maximal dissipation written as Alart-Curnier's semismooth equation
 //   G = lambda_f - proj_{|.| <= mu lambda_n}(z),   z = lambda_f - (s + c_s lambda_f) / k_f
 // with slip s = J_f u, k_f = h (J_f Mt^-1 J_f')avg (velocity per force) and the sticking
 // compliance c_s = reg k_f + creep: reg k_f makes the force distribution of redundant contacts
 // unique; creep (ostOptions.friction_creep, s/kg) is a physical creep, slip = creep x force while
-// sticking, the same at every h (k_f scales with h).
+// sticking, the same at every h (k_f scales with h). The rows are normalized (ost_constraint.h),
+// so torsional and rolling rows share the one circular cone (MuJoCo's elliptic cone).
 // Stick (|z| <= mu lambda_n): J_f du + c_s dlambda_f = -(s + c_s lambda_f), rotation-invariant.
-// Slide: the rows are rotated into the frame (e, e_perp) of z (W[i] = 1, W[i+1..i+2] = e); along
-// e the force is fixed on the cone (lagged lambda_n), across it the compliance weight is
+// Slide: the rows are reflected (Householder H, H z = |z| e_1) into a frame whose first axis is
+// e = z / |z| (W[i] = 1, W[i+1..i+nf] = e); along e the force is fixed on the cone (lagged
+// lambda_n), across it the compliance weight is
 //   W = c_s + k_f (1 - beta) / beta,  beta = mu lambda_n / |z|  (W = slip / |lambda_f| at the
 // solution). Returns the squared merit |G|^2 k_f^2 (velocity units).
-OST_HD ostNum osti_frictionRows(ostWorld* w, int i, ostNum reg, ostNum creep) {
-  int a = i + 1, b = i + 2;
-  ostNum kf = w->h * 0.5 * (w->diag[a] + w->diag[b]);
+OST_HD ostNum osti_frictionRows(ostWorld* w, int i, int nf, ostNum reg, ostNum creep) {
+  int a = i + 1;
+  ostNum kf = 0;
+  for (int k = 0; k < nf; k++) {
+    kf += w->diag[a + k];
+  }
+  kf = w->h * kf / nf;
   ostNum cs = reg * kf + creep;
   ostNum bound = w->rows[i].mu * (w->lambda[i] > 0 ? w->lambda[i] : 0);
-  ostNum l1 = w->lambda[a], l2 = w->lambda[b];
-  ostNum z1 = l1 - (w->Ju[a] + cs * l1) / kf, z2 = l2 - (w->Ju[b] + cs * l2) / kf;
-  ostNum zn = sqrt(z1 * z1 + z2 * z2);
+  ostNum z[OST_MAXFRIC], zn2 = 0;
+  for (int k = 0; k < nf; k++) {
+    ostNum l = w->lambda[a + k];
+    z[k] = l - (w->Ju[a + k] + cs * l) / kf;
+    zn2 += z[k] * z[k];
+  }
+  ostNum zn = sqrt(zn2);
   if (zn <= bound) {
     w->W[i] = 0;
-    w->c[a] = w->c[b] = cs;
-    w->rho[a] = w->Ju[a] + cs * l1;
-    w->rho[b] = w->Ju[b] + cs * l2;
-    return w->rho[a] * w->rho[a] + w->rho[b] * w->rho[b];
+    ostNum m2 = 0;
+    for (int k = 0; k < nf; k++) {
+      w->c[a + k] = cs;
+      w->rho[a + k] = w->Ju[a + k] + cs * w->lambda[a + k];
+      m2 += w->rho[a + k] * w->rho[a + k];
+    }
+    return m2;
   }
-  ostNum e1 = z1 / zn, e2 = z2 / zn;  // zn > bound >= 0
+  ostNum H[OST_MAXFRIC * OST_MAXFRIC];
   w->W[i] = 1;
-  w->W[a] = e1;
-  w->W[b] = e2;
-  osti_rotateFriction(w, a, e1, e2);
-  osti_rowDiag(w, a);
-  osti_rowDiag(w, b);
-  ostNum s1 = w->Ju[a], s2 = w->Ju[b];
-  w->Ju[a] = e1 * s1 + e2 * s2;
-  w->Ju[b] = -e2 * s1 + e1 * s2;
-  ostNum lpar = e1 * l1 + e2 * l2, lperp = -e2 * l1 + e1 * l2;
-  ostNum mpar = kf * (lpar - bound), mperp = kf * lperp;
+  for (int k = 0; k < nf; k++) {
+    w->W[a + k] = z[k] / zn;  // zn > bound >= 0
+  }
+  osti_householder(H, w->W + a, nf);
+  osti_reflectFriction(w, a, nf, H);
+  ostNum lam[OST_MAXFRIC] = {0};
+  for (int k = 0; k < nf; k++) {
+    osti_rowDiag(w, a + k);
+    lam[k] = w->lambda[a + k];
+  }
+  osti_reflect(w->Ju + a, H, nf);
+  osti_reflect(lam, H, nf);  // lam[0] along the slip, the others across it
+  ostNum mpar = kf * (lam[0] - bound), m2 = mpar * mpar;
   w->c[a] = kf * OST_FIXED_ROW;
   w->rho[a] = mpar * OST_FIXED_ROW;
   ostNum beta = bound / zn;
-  if (beta * (OST_FIXED_ROW + 1) > 1) {
-    w->c[b] = cs + kf * (1 - beta) / beta;
-    w->rho[b] = mperp / beta;
-  } else {
-    w->c[b] = kf * OST_FIXED_ROW;  // no normal force: the tangential force goes to zero
-    w->rho[b] = mperp * OST_FIXED_ROW;
+  for (int k = 1; k < nf; k++) {
+    ostNum mperp = kf * lam[k];
+    if (beta * (OST_FIXED_ROW + 1) > 1) {
+      w->c[a + k] = cs + kf * (1 - beta) / beta;
+      w->rho[a + k] = mperp / beta;
+    } else {
+      w->c[a + k] = kf * OST_FIXED_ROW;  // no normal force: the tangential force goes to zero
+      w->rho[a + k] = mperp * OST_FIXED_ROW;
+    }
+    m2 += mperp * mperp;
   }
-  return mpar * mpar + mperp * mperp;
+  return m2;
 }
 
 
@@ -592,8 +647,9 @@ OST_HD ostNum osti_evaluate(ostWorld* w, const ostSolverOptions* opt) {
       w->c[i] = opt->reg * k / h + fb * k / (h * a);
       w->rho[i] = phi / (h * a);
       m_i = phi / h;
-      if (i + 2 < nrow && w->rows[i + 1].type == OST_ROW_FRICTION && w->rows[i + 1].normal == i) {
-        ostNum mf = osti_frictionRows(w, i, opt->reg, opt->creep);
+      int nf = osti_frictionCount(w->rows, nrow, i);
+      if (nf) {
+        ostNum mf = osti_frictionRows(w, i, nf, opt->reg, opt->creep);
         merit += mf;
         fric2 = mf;
       }
@@ -814,8 +870,8 @@ OST_HD int osti_hasSlidingCouplingSet(const ostWorld* w, const ostRowSet* set) {
 }
 
 
-// y = A x plus the coupling of sliding friction on a set (x, y local; a contact's three rows
-// are consecutive in every set): the row along the slip of a sliding contact linearizes
+// y = A x plus the coupling of sliding friction on a set (x, y local; a contact's rows are
+// consecutive in every set): the row along the slip of a sliding contact linearizes
 // G_par = lambda_par - mu lambda_n (osti_frictionRows) completely, c (dlambda_par - mu
 // dlambda_n) + J du = -rho, so A gets -(c / h) mu in that row's normal column. Without it the
 // normal force is lagged by one iterate, and Newton stalls or cycles when normal loads and
@@ -1015,13 +1071,14 @@ OST_HD int osti_newtonDirection(ostWorld* w, const ostSolverOptions* opt) {
   }
 
   // sliding contacts: direction and Jacobian rows back from the slip frame to the contact frame
+  // (H is its own inverse)
   for (int i = 0; i + 2 < nrow; i++) {
     if (w->rows[i].type == OST_ROW_CONTACT && w->W[i] != 0) {
-      ostNum e1 = w->W[i + 1], e2 = w->W[i + 2];
-      ostNum dpar = dlam[i + 1], dperp = dlam[i + 2];
-      dlam[i + 1] = e1 * dpar - e2 * dperp;
-      dlam[i + 2] = e2 * dpar + e1 * dperp;
-      osti_rotateFriction(w, i + 1, e1, -e2);
+      int nf = osti_frictionCount(w->rows, nrow, i);
+      ostNum H[OST_MAXFRIC * OST_MAXFRIC];
+      osti_householder(H, w->W + i + 1, nf);
+      osti_reflect(dlam + i + 1, H, nf);
+      osti_reflectFriction(w, i + 1, nf, H);
     }
   }
   for (int i = 0; i < nrow; i++) {
@@ -1121,8 +1178,7 @@ OST_HD void osti_matchPrevious(ostWorld* w) {
     if (w->used[j] || (p->type != OST_ROW_CONTACT && p->type != OST_ROW_LIMIT)) {
       continue;
     }
-    int nfr = (j + 2 < w->nrow_prev && w->rows_prev[j + 1].type == OST_ROW_FRICTION
-               && w->rows_prev[j + 1].normal == j) ? 2 : 0;
+    int nfr = osti_frictionCount(w->rows_prev, w->nrow_prev, j);
     int n = w->nrow;
     if (n + 1 + nfr > w->nrow_max) {
       break;  // no room: the row is dropped (capacity is for reported contacts)

@@ -176,20 +176,11 @@ int ost_actuatorKind(const mjModel* m, int i, char* err, int err_sz) {
 
 void ost_refusalsModel(const mjModel* m, ostRefusalList* l) {
   char nb[64];
-  for (int i = 0; i < m->ngeom; i++) {
-    int cd = m->geom_condim[i];
-    if (cd != 1 && cd != 3 && (m->geom_contype[i] || m->geom_conaffinity[i])) {
-      ost_refuse(l, "geom", ost_objName(m, mjOBJ_GEOM, i, nb, sizeof(nb)),
-                 "condim %d (torsional/rolling friction; use condim 1 or 3)", cd);
-    }
-  }
+  // condim 1, 3, 4 and 6 are MuJoCo's; anything else is refused by MuJoCo's compiler already
   for (int i = 0; i < m->npair; i++) {
     ost_objName(m, mjOBJ_PAIR, i, nb, sizeof(nb));
-    if (m->pair_dim[i] != 1 && m->pair_dim[i] != 3) {
-      ost_refuse(l, "contact pair", nb, "condim %d (torsional/rolling friction; use condim 1 "
-                 "or 3)", m->pair_dim[i]);
-    }
-    if (m->pair_friction[i * 5] != m->pair_friction[i * 5 + 1]) {
+    const mjtNum* f = m->pair_friction + 5 * i;
+    if (f[0] != f[1] || (m->pair_dim[i] >= 6 && f[3] != f[4])) {
       ost_refuse(l, "contact pair", nb, "anisotropic friction");
     }
   }

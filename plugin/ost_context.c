@@ -40,8 +40,15 @@ static void freeContext(ostContext* c) {
 
 int ost_rowCapacity(const mjModel* m) {
   // equality rows (weld: 6), two limit sides per joint and tendon, dry friction per dof and
-  // tendon, a contact's normal and two tangents, a servo per actuator
-  return 6 * m->neq + 2 * m->njnt + 3 * m->ntendon + m->nv + 3 * m->nconmax + m->nu;
+  // tendon, a contact's normal and friction rows, a servo per actuator
+  int condim = 3;  // rows per contact: 1 + the friction rows of the largest condim
+  for (int i = 0; i < m->ngeom; i++) {
+    condim = m->geom_condim[i] > condim ? m->geom_condim[i] : condim;
+  }
+  for (int i = 0; i < m->npair; i++) {
+    condim = m->pair_dim[i] > condim ? m->pair_dim[i] : condim;
+  }
+  return 6 * m->neq + 2 * m->njnt + 3 * m->ntendon + m->nv + condim * m->nconmax + m->nu;
 }
 
 
@@ -112,7 +119,7 @@ static ostContext* newContext(const mjModel* m, const mjData* d) {
   c->m = m;
   c->servo = (int*)calloc(m->nu > 0 ? m->nu : 1, sizeof(int));
   c->qpos_prev = (mjtNum*)calloc(m->nq > 0 ? m->nq : 1, sizeof(mjtNum));
-  c->jac = (mjtNum*)calloc(6 * (m->nv > 0 ? m->nv : 1), sizeof(mjtNum));
+  c->jac = (mjtNum*)calloc(12 * (m->nv > 0 ? m->nv : 1), sizeof(mjtNum));
   c->state_end = (mjtNum*)calloc(1 + m->nq + 2 * m->nv, sizeof(mjtNum));
   c->state_start = (mjtNum*)calloc(1 + m->nq + 2 * m->nv, sizeof(mjtNum));
   int nrow_max = ost_rowCapacity(m);

@@ -161,9 +161,10 @@ int ost_checkNative(const mjModel* m, char* err, int err_sz) {
 }
 
 
-// append candidate pair (g1, g2) with its contact parameters; geoms ordered by type as MuJoCo
+// append candidate pair (g1, g2) with its contact parameters (friction: sliding, torsional,
+// rolling); geoms ordered by type as MuJoCo
 static void addPair(ostModel* om, int* n, const mjModel* m, int terrain, int g1, int g2,
-                    int condim, mjtNum margin, mjtNum gap, mjtNum friction) {
+                    int condim, mjtNum margin, mjtNum gap, const mjtNum friction[3]) {
   // a terrain mesh goes first, like a height field, so normals point from the terrain out
   if (g2 == terrain || (g1 != terrain && m->geom_type[g1] > m->geom_type[g2])) {
     int t = g1;
@@ -176,7 +177,9 @@ static void addPair(ostModel* om, int* n, const mjModel* m, int terrain, int g1,
     om->pair_condim[*n] = condim;
     om->pair_margin[*n] = margin;
     om->pair_gap[*n] = gap;
-    om->pair_friction[*n] = friction;
+    om->pair_friction[*n] = friction[0];
+    om->pair_torsion[*n] = friction[1];
+    om->pair_rolling[*n] = friction[2];
   }
   (*n)++;
 }
@@ -213,8 +216,10 @@ static int candidatePairs(const mjModel* m, ostModel* om, int core_only) {
     }
     if (typesCollide(m->geom_type[g1] < m->geom_type[g2] ? m->geom_type[g1] : m->geom_type[g2],
                      m->geom_type[g1] < m->geom_type[g2] ? m->geom_type[g2] : m->geom_type[g1])) {
-      addPair(om, &n, m, terrain, g1, g2, m->pair_dim[i], m->pair_margin[i], m->pair_gap[i],
-              m->pair_friction[5 * i]);
+      // MuJoCo's 5 coefficients (t1, t2, torsion, roll1, roll2); anisotropy is refused
+      const mjtNum* f = m->pair_friction + 5 * i;
+      mjtNum fr[3] = {f[0], f[2], f[3]};
+      addPair(om, &n, m, terrain, g1, g2, m->pair_dim[i], m->pair_margin[i], m->pair_gap[i], fr);
     }
   }
   for (int g1 = 0; g1 < m->ngeom; g1++) {
@@ -228,8 +233,12 @@ static int candidatePairs(const mjModel* m, ostModel* om, int core_only) {
                                                             : m->geom_condim[g2];
       mjtNum margin = mju_max(m->geom_margin[g1], m->geom_margin[g2]);
       mjtNum gap = mju_max(m->geom_gap[g1], m->geom_gap[g2]);
-      mjtNum mu = mju_max(m->geom_friction[3 * g1], m->geom_friction[3 * g2]);
-      addPair(om, &n, m, terrain, g1, g2, condim, margin, gap, mu);
+      // MuJoCo's mixing: the larger of each coefficient (sliding, torsional, rolling)
+      mjtNum fr[3];
+      for (int k = 0; k < 3; k++) {
+        fr[k] = mju_max(m->geom_friction[3 * g1 + k], m->geom_friction[3 * g2 + k]);
+      }
+      addPair(om, &n, m, terrain, g1, g2, condim, margin, gap, fr);
     }
   }
   return n;
@@ -423,7 +432,7 @@ int ost_packCorePairs(const mjModel* m, ostModel* pairs, void** block) {
   if (n == 0) {
     return OST_OK;
   }
-  size_t ints = 3 * (size_t)n * sizeof(int), nums = 3 * (size_t)n * sizeof(ostNum);
+  size_t ints = 3 * (size_t)n * sizeof(int), nums = 5 * (size_t)n * sizeof(ostNum);
   char* b = malloc(ints + nums);
   if (!b) {
     return OST_ERR_MEMORY;
@@ -434,6 +443,8 @@ int ost_packCorePairs(const mjModel* m, ostModel* pairs, void** block) {
   pairs->pair_margin = (ostNum*)b;
   pairs->pair_gap = pairs->pair_margin + n;
   pairs->pair_friction = pairs->pair_gap + n;
+  pairs->pair_torsion = pairs->pair_friction + n;
+  pairs->pair_rolling = pairs->pair_torsion + n;
   pairs->pair_geom1 = (int*)(b + nums);
   pairs->pair_geom2 = pairs->pair_geom1 + n;
   pairs->pair_condim = pairs->pair_geom2 + n;

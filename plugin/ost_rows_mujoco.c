@@ -30,10 +30,11 @@ static void efcRow(const mjModel* m, const mjData* d, int i, ostNum* J) {
 
 // the translational Jacobian of body b at pos, on b's dof chain only, into jac (3 x nv, rows
 // apart by nv; entries off the chain are left as they are), as mj_jac computes it
-// (engine_support.c): column j = cdof_lin + cdof_ang x (pos - subtree_com of b's root).
+// (engine_support.c): column j = cdof_lin + cdof_ang x (pos - subtree_com of b's root); and
+// the rotational Jacobian (column j = cdof_ang) into jacr unless it is NULL.
 // Returns the chain's last dof, or -1 if b moves with the world.
-static int chainJacobian(const mjModel* m, const mjData* d, mjtNum* jac, const mjtNum pos[3],
-                         int b) {
+static int chainJacobian(const mjModel* m, const mjData* d, mjtNum* jac, mjtNum* jacr,
+                         const mjtNum pos[3], int b) {
   int nv = m->nv;
   mjtNum offset[3], tmp[3];
   mju_sub3(offset, pos, d->subtree_com + 3 * m->body_rootid[b]);
@@ -50,12 +51,17 @@ static int chainJacobian(const mjModel* m, const mjData* d, mjtNum* jac, const m
     jac[j] = cdof[3] + tmp[0];
     jac[nv + j] = cdof[4] + tmp[1];
     jac[2 * nv + j] = cdof[5] + tmp[2];
+    if (jacr) {
+      jacr[j] = cdof[0];
+      jacr[nv + j] = cdof[1];
+      jacr[2 * nv + j] = cdof[2];
+    }
   }
   return last;
 }
 
 
-// zero the 3 rows (apart by nv) of jac on the dof chain ending at last
+// zero the rows (apart by nv) of jac on the dof chain ending at last
 static void chainZero(const mjModel* m, mjtNum* jac, int rows, int last) {
   for (int j = last; j >= 0; j = m->dof_parentid[j]) {
     for (int r = 0; r < rows; r++) {
@@ -65,17 +71,26 @@ static void chainZero(const mjModel* m, mjtNum* jac, int rows, int last) {
 }
 
 
-// the rows n, t1, t2 (apart by nv in J) of a contact on dof chain `last` (osti_contactRows'
-// arithmetic, column by column); returns 1 if a column is non-zero
+// the normal row and the nf friction rows of the given slots and scales (apart by nv in J) of a
+// contact on dof chain `last` (the arithmetic of osti_contactRows and osti_frictionJacobian,
+// column by column) from the translational (j1, j2) and rotational (r1, r2) Jacobians; returns
+// 1 if a column of the normal row is non-zero
 static int chainRows(const mjModel* m, const mjtNum frame[9], const mjtNum* j1, const mjtNum* j2,
-                     int last, int fric, ostNum* J) {
+                     const mjtNum* r1, const mjtNum* r2, int last, int nf, const int* slot,
+                     const mjtNum* scale, ostNum* J) {
   int nv = m->nv, any = 0;
   for (int j = last; j >= 0; j = m->dof_parentid[j]) {
     mjtNum dx = j2[j] - j1[j], dy = j2[nv + j] - j1[nv + j], dz = j2[2 * nv + j] - j1[2 * nv + j];
     J[j] = frame[0] * dx + frame[1] * dy + frame[2] * dz;
-    if (fric) {
-      J[nv + j] = frame[3] * dx + frame[4] * dy + frame[5] * dz;
-      J[2 * nv + j] = frame[6] * dx + frame[7] * dy + frame[8] * dz;
+    for (int f = 0; f < nf; f++) {
+      const mjtNum* e = frame + 3 * (slot[f] == 3 ? 0 : (slot[f] == 1 || slot[f] == 4 ? 1 : 2));
+      mjtNum x = dx, y = dy, z = dz;
+      if (slot[f] >= 3) {
+        x = r2[j] - r1[j];
+        y = r2[nv + j] - r1[nv + j];
+        z = r2[2 * nv + j] - r1[2 * nv + j];
+      }
+      J[(size_t)(1 + f) * nv + j] = scale[f] * (e[0] * x + e[1] * y + e[2] * z);
     }
     any |= J[j] != 0;
   }
@@ -83,23 +98,30 @@ static int chainRows(const mjModel* m, const mjtNum frame[9], const mjtNum* j1, 
 }
 
 
-// rows n, t1, t2 of a contact between geoms g1, g2 at pos with frame into J (rows apart by nv,
-// zero on entry and zero off the two bodies' dof chains): frame rows times (J(body2) -
-// J(body1)) at the contact point, computed on the chains only (O(depth), not O(nv)).
-// c->jac is zero between calls. Returns 0 if the contact moves no degree of freedom;
-// *last1, *last2 get the chains (for chainZero after the rows are stored).
+// the rows of a contact between geoms g1, g2 at pos with frame into J (rows apart by nv, zero
+// on entry and zero off the two bodies' dof chains): the normal and nf friction rows, frame rows
+// times (J(body2) - J(body1)) at the contact point, computed on the chains only (O(depth), not
+// O(nv)). c->jac (12 nv: translational and rotational of both bodies) is zero between calls.
+// Returns 0 if the contact moves no degree of freedom; *last1, *last2 get the chains (for
+// chainZero after the rows are stored).
 static int contactJacobian(ostContext* c, const mjData* d, int g1, int g2, const mjtNum pos[3],
-                           const mjtNum frame[9], int fric, ostNum* J, int* last1, int* last2) {
+                           const mjtNum frame[9], int nf, const int* slot, const mjtNum* scale,
+                           ostNum* J, int* last1, int* last2) {
   const mjModel* m = c->mo;
+  int nv = m->nv, rot = nf > 0 && slot[nf - 1] >= 3;
   mjtNum* j1 = c->jac;
-  mjtNum* j2 = c->jac + 3 * m->nv;
+  mjtNum* j2 = c->jac + 3 * nv;
+  mjtNum* r1 = c->jac + 6 * nv;
+  mjtNum* r2 = c->jac + 9 * nv;
   int b1 = m->geom_bodyid[g1], b2 = m->geom_bodyid[g2];
-  *last1 = b1 > 0 ? chainJacobian(m, d, j1, pos, b1) : -1;
-  *last2 = b2 > 0 ? chainJacobian(m, d, j2, pos, b2) : -1;
-  int any = chainRows(m, frame, j1, j2, *last1, fric, J);
-  any |= chainRows(m, frame, j1, j2, *last2, fric, J);
+  *last1 = b1 > 0 ? chainJacobian(m, d, j1, rot ? r1 : NULL, pos, b1) : -1;
+  *last2 = b2 > 0 ? chainJacobian(m, d, j2, rot ? r2 : NULL, pos, b2) : -1;
+  int any = chainRows(m, frame, j1, j2, r1, r2, *last1, nf, slot, scale, J);
+  any |= chainRows(m, frame, j1, j2, r1, r2, *last2, nf, slot, scale, J);
   chainZero(m, j1, 3, *last1);
   chainZero(m, j2, 3, *last2);
+  chainZero(m, r1, 3, *last1);
+  chainZero(m, r2, 3, *last2);
   return any;
 }
 
@@ -135,27 +157,32 @@ static int widthOverflow(ostContext* c) {
 }
 
 
-// append the rows of one contact at rows[*n]: normal, and two tangents when fric; gap is the
-// row's distance offset (the user's margin - gap, with the look-ahead: dist - gap = row pos)
+// append the rows of one contact at rows[*n]: normal, then the friction rows of its condim and
+// coefficients fr (sliding, torsional, rolling; osti_frictionSlots); dist is the row's gap (the
+// user's margin - gap, with the look-ahead: dist - gap = row pos)
 static int contactRows(ostContext* c, const mjData* d, int g1, int g2, const mjtNum pos[3],
-                       const mjtNum frame[9], mjtNum dist, mjtNum mu, int fric, int* n) {
+                       const mjtNum frame[9], mjtNum dist, int condim, const mjtNum fr[3],
+                       int* n) {
   ostWorld* w = &c->world;
-  if (*n + (fric ? 3 : 1) > w->nrow_max) {
+  int slot[OST_MAXFRIC];
+  mjtNum scale[OST_MAXFRIC];
+  int nf = osti_frictionSlots(condim, fr[0], fr[1], fr[2], slot, scale);
+  if (*n + 1 + nf > w->nrow_max) {
     return ost_fail(c, OST_ERR_OVERFLOW, "row capacity %d exceeded", w->nrow_max);
   }
   ostNum* J = osti_rowScratch(w, *n);  // zero off the chains (ost_rowsMujoco)
   int last1, last2;
-  int moves = contactJacobian(c, d, g1, g2, pos, frame, fric, J, &last1, &last2);
-  int wide = moves && osti_rowStoreChains(w, *n, fric ? 3 : 1, last1, last2);
-  chainZero(c->mo, J, 3, last1);  // keep the scratch zero for the next contact
-  chainZero(c->mo, J, 3, last2);
+  int moves = contactJacobian(c, d, g1, g2, pos, frame, nf, slot, scale, J, &last1, &last2);
+  int wide = moves && osti_rowStoreChains(w, *n, 1 + nf, last1, last2);
+  chainZero(c->mo, J, 1 + nf, last1);  // keep the scratch zero for the next contact
+  chainZero(c->mo, J, 1 + nf, last2);
   if (!moves) {
     return OST_OK;
   }
   if (wide) {
     return widthOverflow(c);
   }
-  for (int k = 0; k < (fric ? 3 : 1); k++) {
+  for (int k = 0; k <= nf; k++) {
     ostRow* r = w->rows + *n + k;
     memset(r, 0, sizeof(ostRow));
     r->type = k == 0 ? OST_ROW_CONTACT : OST_ROW_FRICTION;
@@ -164,9 +191,13 @@ static int contactRows(ostContext* c, const mjData* d, int g1, int g2, const mjt
     r->obj[1] = g2;
     contactKeyOf(c->mo, d, g1, g2, pos, r->key);
     r->pos = dist;
-    r->mu = mu;
+    r->mu = fr[0];
+    if (k > 0) {
+      r->alpha = scale[k - 1];
+      r->lo = slot[k - 1];
+    }
   }
-  *n += fric ? 3 : 1;
+  *n += 1 + nf;
   return OST_OK;
 }
 
@@ -327,8 +358,8 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
   }
 
   // contact rows: the scratch rows start at zero, each contact writes and clears its chains
-  memset(osti_rowScratch(w, n), 0, 3 * (size_t)nv * sizeof(ostNum));
-  memset(c->jac, 0, 6 * (size_t)nv * sizeof(mjtNum));
+  memset(osti_rowScratch(w, n), 0, (1 + OST_MAXFRIC) * (size_t)nv * sizeof(ostNum));
+  memset(c->jac, 0, 12 * (size_t)nv * sizeof(mjtNum));
 
   // contact rows: normal then two tangents in the contact frame (frame[0:3] from geom1 to
   // geom2, so J_n u > 0 separates); contacts within the look-ahead distance are candidates.
@@ -340,10 +371,10 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
     if (con->exclude > 1 || ost_corePair(m, con->geom1, con->geom2)) {
       continue;  // fused, equality-joined or without degrees of freedom; or core's pair
     }
-    int fric = con->dim >= 3 && con->friction[0] > 0;
+    mjtNum fr[3] = {con->friction[0], con->friction[2], con->friction[3]};
     mjtNum pos = con->dist - con->includemargin + c->opt.margin;  // user's margin - gap
-    if ((status = contactRows(c, d, con->geom1, con->geom2, con->pos, con->frame, pos,
-                              con->friction[0], fric, &n))) {
+    if ((status = contactRows(c, d, con->geom1, con->geom2, con->pos, con->frame, pos, con->dim,
+                              fr, &n))) {
       return status;
     }
   }
@@ -352,11 +383,11 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
     ostContact con[OST_MAXCONPAIR];
     int g1 = cp->pair_geom1[p], g2 = cp->pair_geom2[p];
     int ncon = ost_collideCorePair(m, d, c->hfield_data, g1, g2, cp->pair_margin[p], con);
-    int fric = cp->pair_condim[p] >= 3 && cp->pair_friction[p] > 0;
+    mjtNum fr[3] = {cp->pair_friction[p], cp->pair_torsion[p], cp->pair_rolling[p]};
     for (int i = 0; i < ncon; i++) {
       mjtNum pos = con[i].dist - (cp->pair_margin[p] - cp->pair_gap[p]) + c->opt.margin;
       if ((status = contactRows(c, d, g1, g2, con[i].pos, con[i].frame, pos,
-                                cp->pair_friction[p], fric, &n))) {
+                                cp->pair_condim[p], fr, &n))) {
         return status;
       }
     }

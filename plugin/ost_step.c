@@ -323,10 +323,16 @@ static void publishForces(ostContext* c, const mjModel* m, mjData* d) {
       continue;
     }
     used[best] = 1;
+    // MuJoCo's contact-frame force: normal, then each friction row's force s_k lambda_k in its
+    // slot (ost_constraint.h: normalized rows)
     mjtNum f[6] = {w->lambda[best], 0, 0, 0, 0, 0};
-    if (best + 2 < w->nrow && w->rows[best + 1].type == OST_ROW_FRICTION) {
-      f[1] = w->lambda[best + 1];
-      f[2] = w->lambda[best + 2];
+    int nf = osti_frictionCount(w->rows, w->nrow, best);
+    for (int k = 1; k <= nf; k++) {
+      const ostRow* fr = w->rows + best + k;
+      int slot = (int)fr->lo;
+      if (slot < con->dim) {
+        f[slot] = fr->alpha * w->lambda[best + k];
+      }
     }
     if (m->opt.cone == mjCONE_ELLIPTIC || con->dim == 1) {
       memcpy(d->efc_force + con->efc_address, f, con->dim * sizeof(mjtNum));

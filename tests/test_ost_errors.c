@@ -25,12 +25,14 @@ START_TEST(test_unsupportedFeature) {
   ck_assert_double_eq(d->time, 0);
   ost_deleteData(d);
   mj_deleteModel(m);
-  // condim 6 is named too
-  m = ost_fixtureLoadString("<mujoco><worldbody><geom name='floor' type='plane' size='1 1 1'"
-                            " condim='6'/></worldbody></mujoco>");
+  // anisotropic rolling friction of a condim 6 pair is named too
+  m = ost_fixtureLoadString("<mujoco><worldbody><geom name='floor' type='plane' size='1 1 1'/>"
+                            "<body><freejoint/><geom name='ball' size='0.1'/></body></worldbody>"
+                            "<contact><pair name='roll' geom1='floor' geom2='ball' condim='6'"
+                            " friction='1 1 0.01 0.001 0.002'/></contact></mujoco>");
   ck_assert_int_eq(ost_checkModel(m, err, sizeof(err)), OST_ERR_MODEL);
-  ck_assert_ptr_nonnull(strstr(err, "condim 6"));
-  ck_assert_ptr_nonnull(strstr(err, "floor"));
+  ck_assert_ptr_nonnull(strstr(err, "anisotropic friction"));
+  ck_assert_ptr_nonnull(strstr(err, "roll"));
   mj_deleteModel(m);
 }
 END_TEST
