@@ -31,6 +31,7 @@ typedef struct ostSizes_ {        // sizes of an ostModel
   int njnt;                       // joints
   int ngeom;                      // geoms
   int nu;                         // actuators
+  int na;                         // activations (actuators with dynamics, the last na)
   int npair;                      // candidate collision pairs (filtered, explicit pairs included)
   int nmesh;                      // meshes
   int nmeshvert;                  // mesh vertices, all meshes (convex hull for convex meshes)
@@ -41,7 +42,9 @@ typedef struct ostSizes_ {        // sizes of an ostModel
   int ncellface;                  // terrain grid cell->face entries, all terrain meshes
   int ncon_max;                   // contact capacity of one world (per iterate)
   int ncol;                       // widest row pattern in columns (ostu_rowWidth)
+  int pad;                        // zero: keeps the doubles after an ostSizes unpadded
 } ostSizes;
+OST_STATIC_ASSERT(sizeof(ostSizes) % 8 == 0, "ostSizes: a multiple of 8 bytes");
 
 // the model's arrays (type, name, rows, cols); sizes come from an ostSizes named s
 #define OST_MODEL_ARRAYS(X)                                                                    \
@@ -123,7 +126,12 @@ typedef struct ostSizes_ {        // sizes of an ostModel
   X(ostNum, actuator_gainprm, s.nu,          1)  /* gain: force = g ctrl + b0 + b1 L + b2 V */ \
   X(ostNum, actuator_biasprm, s.nu,          3)  /* b0, b1, b2                           */    \
   X(ostNum, actuator_ctrlrange,  s.nu,       2)  /* control range                        */    \
-  X(ostNum, actuator_forcerange, s.nu,       2)  /* force range                          */
+  X(ostNum, actuator_forcerange, s.nu,       2)  /* force range                          */    \
+  X(int,    actuator_dyntype, s.nu,          1)  /* osttDyn (ost_activation.h)           */    \
+  X(int,    actuator_actadr,  s.nu,          1)  /* its activation in act (-1: none)     */    \
+  X(int,    actuator_actlimited, s.nu,       1)  /* clamp act to actrange                */    \
+  X(ostNum, actuator_dynprm,  s.nu,          1)  /* dynprm[0]: the filter's tau (s)      */    \
+  X(ostNum, actuator_actrange, s.nu,         2)  /* activation range                     */
 
 typedef struct ostModel_ {        // Ostrich's model: sizes, options and pointers into one block
   ostSizes s;                     // sizes

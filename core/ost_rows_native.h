@@ -86,9 +86,14 @@ OST_HD ostRow* osti_newRow(ostWorld* w, int n, int type) {
 }
 
 
-// ctrl of actuator i, clamped to ctrlrange as MuJoCo does
+// the input of actuator i: ctrl clamped to ctrlrange as MuJoCo does, or for an actuator with
+// activation dynamics the entry as given, its act+ (the caller's osti_actuation, eq. 8b). The
+// `ctrl` arrays of the functions below are these inputs.
 OST_HD ostNum osti_ctrl(const ostModel* m, const ostNum* ctrl, int i) {
   ostNum c = ctrl[i];
+  if (m->actuator_actadr[i] >= 0) {
+    return c;
+  }
   if (m->actuator_ctrllimited[i] && !(m->disableflags & OST_DSBL_CLAMPCTRL)) {
     const ostNum* r = m->actuator_ctrlrange + 2 * i;
     c = c < r[0] ? r[0] : (c > r[1] ? r[1] : c);

@@ -277,6 +277,10 @@ int ost_recordsBackward(ostContext* c, const mjModel* m, void* recs, size_t nbyt
                         const ostGradOptions* go, mjtNum* gq, mjtNum* gu, mjtNum* gctrl,
                         mjtNum* gtheta) {
   int status = recordsSolved(c, m, recs, nbytes);
+  if (!status && m->na > 0) {
+    status = ost_fail(c, OST_ERR_MODEL, "gradients of models with activation dynamics (na = "
+                      "%d) are not supported yet", m->na);
+  }
   if (!status) {
     status = adjointPrepare(c, m);
   }

@@ -93,6 +93,13 @@ ostBatch* ost_batchCreate(const mjModel* m, int nworld, const char* device, char
              "1 <= N <= %d, or \"cuda\")", device, OST_BATCH_MAX_THREADS);
     return NULL;
   }
+  if (m->na > 0) {
+    // a world's state is (qpos, qvel) here: stepping a batch would drop the activations
+    snprintf(err, err_sz, "ost_batchCreate: models with activation dynamics (na = %d) are not "
+             "supported by batches, whose world state (ost_batchSetState, ost_batchRollout) is "
+             "qpos and qvel only; step them with ost_step", m->na);
+    return NULL;
+  }
 #ifndef OSTRICH_HAVE_CUDA
   if (cuda) {
     snprintf(err, err_sz, "ost_batchCreate: this Ostrich was built without CUDA "

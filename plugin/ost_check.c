@@ -135,9 +135,14 @@ static void actuatorRefusals(const mjModel* m, int i, ostRefusalList* l) {
   const char* name = ost_objName(m, mjOBJ_ACTUATOR, i, nb, sizeof(nb));
   const mjtNum* b = m->actuator_biasprm + i * mjNBIAS;
   int dt = m->actuator_dyntype[i], gt = m->actuator_gaintype[i], bt = m->actuator_biastype[i];
-  if (dt != mjDYN_NONE) {
-    ost_refuse(l, "actuator", name, "activation dynamics (dyntype %s)",
-               dt >= 0 && dt <= mjDYN_USER ? dyn[dt] : "unknown");
+  // integrator and filter activations are taken implicitly (core/ost_activation.h)
+  if (dt == mjDYN_MUSCLE) {
+    ost_refuse(l, "actuator", name, "muscle activation dynamics (dyntype muscle; Ostrich takes "
+               "dyntype integrator and filter)");
+  } else if (dt != mjDYN_NONE && dt != mjDYN_INTEGRATOR && dt != mjDYN_FILTER) {
+    ost_refuse(l, "actuator", name, "activation dynamics (dyntype %s%s)",
+               dt >= 0 && dt <= mjDYN_USER ? dyn[dt] : "unknown",
+               dt == mjDYN_USER ? ": the mjcb_act_dyn callback" : "");
   }
   if (gt != mjGAIN_FIXED) {
     ost_refuse(l, "actuator", name, "a non-fixed gain (gaintype %s)",

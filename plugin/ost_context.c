@@ -25,6 +25,7 @@ static void freeContext(ostContext* c) {
   free(c->qpos_prev);
   free(c->state_end);
   free(c->state_start);
+  free(c->act_input);
   free(c->jac);
   free(c->world_buf);
   free(c->native_block);
@@ -120,14 +121,16 @@ static ostContext* newContext(const mjModel* m, const mjData* d) {
   c->servo = (int*)calloc(m->nu > 0 ? m->nu : 1, sizeof(int));
   c->qpos_prev = (mjtNum*)calloc(m->nq > 0 ? m->nq : 1, sizeof(mjtNum));
   c->jac = (mjtNum*)calloc(12 * (m->nv > 0 ? m->nv : 1), sizeof(mjtNum));
-  c->state_end = (mjtNum*)calloc(1 + m->nq + 2 * m->nv, sizeof(mjtNum));
-  c->state_start = (mjtNum*)calloc(1 + m->nq + 2 * m->nv, sizeof(mjtNum));
+  c->state_end = (mjtNum*)calloc(1 + m->nq + 2 * m->nv + m->na, sizeof(mjtNum));
+  c->state_start = (mjtNum*)calloc(1 + m->nq + 2 * m->nv + m->na, sizeof(mjtNum));
+  c->act_input = (mjtNum*)calloc(m->nu + 2 * m->na + 1, sizeof(mjtNum));
+  c->act_next = c->act_input + m->nu;
   int nrow_max = ost_rowCapacity(m);
   int ncol = ost_rowWidth(m);
   size_t sz = ostu_worldSize(m->nv, ncol, nrow_max);
   c->world_buf = aligned_alloc(64, (sz + 63) / 64 * 64);
   if (!c->servo || !c->qpos_prev || !c->state_end || !c->state_start || !c->jac
-      || !c->world_buf) {
+      || !c->act_input || !c->world_buf) {
     freeContext(c);
     return NULL;
   }

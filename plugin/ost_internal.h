@@ -61,8 +61,12 @@ typedef struct ostContext_ {
   char           err[512];        // message of the last failure
   int*           servo;           // 1 if actuator i is an implicit servo row     (nu)
   mjtNum*        qpos_prev;       // q- of the current step                        (nq)
-  mjtNum*        state_start;     // state at ost_step2 entry          (1 + nq + 2 nv)
-  mjtNum*        state_end;       // state after the last step         (1 + nq + 2 nv)
+  mjtNum*        state_start;     // state at ost_step2 entry     (1 + nq + 2 nv + na)
+  mjtNum*        state_end;       // state after the last step    (1 + nq + 2 nv + na)
+  mjtNum*        act_input;       // the substep's actuator inputs: clamped ctrl, or act+
+                                  // for an actuator with dynamics (osti_actuation)  (nu)
+  mjtNum*        act_next;        // the substep's act+ (na) after act_input's nu, then
+                                  // room for act- while mj_fwdActuation reads act+  (na)
   int            warm_valid;      // 1 if state_end and the world's warm rows are valid
   mjtNum*        jac;             // contact Jacobian scratch                      (6 x nv)
   void*          world_buf;       // the core world's single allocation
@@ -112,10 +116,12 @@ int ost_fail(ostContext* c, int status, const char* fmt, ...);
 // kinematics and collision on the private model (the `mujoco` geometry provider)
 int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h);
 
-// the `native` provider's rows at the configuration in d->qpos (core/ost_rows_native.h)
+// the `native` provider's rows at the configuration in d->qpos (core/ost_rows_native.h), with
+// the substep's actuator inputs c->act_input
 int ost_rowsNative(ostContext* c, mjData* d, mjtNum h);
 
-// the `native` provider's start of a step at d's (q-, u-): Mt and f into the world
+// the `native` provider's start of a step at d's (q-, u-): Mt and f into the world, with the
+// substep's actuator inputs c->act_input
 void ost_startNative(ostContext* c, const mjData* d, mjtNum h);
 
 // matching key of a contact: its position in the frame of a moving body of the pair (geom2's

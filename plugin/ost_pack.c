@@ -287,6 +287,7 @@ int ost_packModel(const mjModel* m, int ncon_max, ostModel* om, void** block, ch
   s.njnt = m->njnt;
   s.ngeom = m->ngeom;
   s.nu = m->nu;
+  s.na = m->na;
   s.npair = candidatePairs(m, NULL, 0);
   s.nmesh = m->nmesh;
   s.nmeshvert = m->nmeshvert;
@@ -418,6 +419,12 @@ int ost_packModel(const mjModel* m, int ncon_max, ostModel* om, void** block, ch
     COPY(om->actuator_biasprm + 3 * i, m->actuator_biasprm + mjNBIAS * i, 3);
     COPY(om->actuator_ctrlrange + 2 * i, m->actuator_ctrlrange + 2 * i, 2);
     COPY(om->actuator_forcerange + 2 * i, m->actuator_forcerange + 2 * i, 2);
+    // activation i - (nu - na) belongs to actuator i (mj_fwdActuation)
+    om->actuator_dyntype[i] = m->actuator_dyntype[i];
+    om->actuator_actadr[i] = m->actuator_dyntype[i] == mjDYN_NONE ? -1 : i - (s.nu - s.na);
+    om->actuator_actlimited[i] = m->actuator_actlimited[i];
+    om->actuator_dynprm[i] = m->actuator_dynprm[mjNDYN * i];
+    COPY(om->actuator_actrange + 2 * i, m->actuator_actrange + 2 * i, 2);
   }
 #undef COPY
   return OST_OK;

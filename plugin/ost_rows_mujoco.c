@@ -393,7 +393,8 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
     }
   }
 
-  // implicit servo rows: force = g ctrl + b0 + b1 L(q) + b2 V, V = moment u          (eq. 8)
+  // implicit servo rows: force = g a + b0 + b1 L(q) + b2 V, V = moment u             (eq. 8)
+  // with a the actuator's input: clamped ctrl, or act+ with activation dynamics (eq. 8b)
   if (!(m->opt.disableflags & mjDSBL_ACTUATION)) {
     for (int i = 0; i < m->nu; i++) {
       if (!c->servo[i]) {
@@ -402,12 +403,7 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
       NEED_ROWS(1);
       const mjtNum* g = m->actuator_gainprm + i * mjNGAIN;
       const mjtNum* b = m->actuator_biasprm + i * mjNBIAS;
-      mjtNum ctrl = d->ctrl[i];
-      if (m->actuator_ctrllimited[i] && !(m->opt.disableflags & mjDSBL_CLAMPCTRL)) {
-        const mjtNum* cr = m->actuator_ctrlrange + 2 * i;
-        ctrl = ctrl < cr[0] ? cr[0] : (ctrl > cr[1] ? cr[1] : ctrl);
-      }
-      osti_servoRow(w->rows + n, i, g[0], b, ctrl, d->actuator_length[i], h,
+      osti_servoRow(w->rows + n, i, g[0], b, c->act_input[i], d->actuator_length[i], h,
                     m->actuator_forcelimited[i], m->actuator_forcerange + 2 * i);
       memcpy(osti_rowScratch(w, n), d->actuator_moment + (size_t)i * nv, nv * sizeof(ostNum));
       if (osti_rowStore(w, n, 1)) {

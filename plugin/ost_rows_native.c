@@ -6,7 +6,7 @@
 #include "ost_rows_native.h"
 
 int ost_rowsNative(ostContext* c, mjData* d, mjtNum h) {
-  switch (osti_nativeIterate(&c->native, &c->kin, &c->world, d->qpos, d->ctrl, c->opt.margin,
+  switch (osti_nativeIterate(&c->native, &c->kin, &c->world, d->qpos, c->act_input, c->opt.margin,
                              h)) {
   case OST_ROWS_CONTACT_OVERFLOW:
     return ost_fail(c, OST_ERR_OVERFLOW, "contact capacity exceeded: more than nconmax=%d "
@@ -25,6 +25,6 @@ int ost_rowsNative(ostContext* c, mjData* d, mjtNum h) {
 
 
 void ost_startNative(ostContext* c, const mjData* d, mjtNum h) {
-  osti_nativeStart(&c->native, &c->kin, &c->world, d->qpos, d->qvel, d->ctrl, d->qfrc_applied,
-                   d->xfrc_applied, h);
+  osti_nativeStart(&c->native, &c->kin, &c->world, d->qpos, d->qvel, c->act_input,
+                   d->qfrc_applied, d->xfrc_applied, h);
 }

@@ -9,6 +9,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "ost_activation.h"
 #include "ost_internal.h"
 #include "ost_step.h"
 
@@ -135,14 +136,15 @@ int ost_prepareContext(ostContext* c, const mjModel* m) {
 }
 
 
-// a state snapshot (time, qpos, qvel, qacc_warmstart) into s (1 + nq + 2 nv): the start of
-// ost_step2, so that a failure anywhere in the step (substeps included) leaves d as it was,
-// and the end of the last step, which a step must continue from to be warm-started
+// a state snapshot (time, qpos, qvel, qacc_warmstart, act) into s (1 + nq + 2 nv + na): the
+// start of ost_step2, so that a failure anywhere in the step (substeps included) leaves d as it
+// was, and the end of the last step, which a step must continue from to be warm-started
 static void saveState(const mjModel* m, const mjData* d, mjtNum* s) {
   s[0] = d->time;
   memcpy(s + 1, d->qpos, m->nq * sizeof(mjtNum));
   memcpy(s + 1 + m->nq, d->qvel, m->nv * sizeof(mjtNum));
   memcpy(s + 1 + m->nq + m->nv, d->qacc_warmstart, m->nv * sizeof(mjtNum));
+  memcpy(s + 1 + m->nq + 2 * m->nv, d->act, m->na * sizeof(mjtNum));
 }
 
 
@@ -152,6 +154,7 @@ static void restoreStart(ostContext* c, const mjModel* m, mjData* d) {
   memcpy(d->qpos, s + 1, m->nq * sizeof(mjtNum));
   memcpy(d->qvel, s + 1 + m->nq, m->nv * sizeof(mjtNum));
   memcpy(d->qacc_warmstart, s + 1 + m->nq + m->nv, m->nv * sizeof(mjtNum));
+  memcpy(d->act, s + 1 + m->nq + 2 * m->nv, m->na * sizeof(mjtNum));
 }
 
 
@@ -431,8 +434,17 @@ static void mujocoStart(ostContext* c, const mjModel* m, mjData* d, mjtNum h, in
     mj_fwdVelocity(m, d);
   }
 
-  // explicit forces at (q-, u-): f = qfrc_smooth minus the servo forces that become rows
+  // explicit forces at (q-, u-): f = qfrc_smooth minus the servo forces that become rows. An
+  // actuator with activation dynamics applies gain act+ + bias (eq. 8b): mj_fwdActuation reads
+  // d->act, which holds act+ while it runs and act- again after
+  if (m->na) {
+    mju_copy(c->act_next + m->na, d->act, m->na);
+    mju_copy(d->act, c->act_next, m->na);
+  }
   mj_fwdActuation(m, d);
+  if (m->na) {
+    mju_copy(d->act, c->act_next + m->na, m->na);
+  }
   mj_fwdAcceleration(m, d);
   memcpy(w->qfrc_explicit, d->qfrc_smooth, nv * sizeof(mjtNum));
   if (!(m->opt.disableflags & mjDSBL_ACTUATION)) {
@@ -468,10 +480,34 @@ static void mujocoStart(ostContext* c, const mjModel* m, mjData* d, mjtNum h, in
 }
 
 
-// the start of a substep at d's (q-, u-): Mt and f into the world. Stages at q- are recomputed
-// unless fresh (ost_step1 just ran them for the step's first substep).
+// the substep's actuator inputs and act+ (core/ost_activation.h, eq. 8b) from d's ctrl and its
+// act-, as osti_actuation does on a packed model: c->act_input (nu) and c->act_next (na)
+static void activation(ostContext* c, const mjModel* m, const mjData* d, mjtNum h) {
+  int clamp = !(m->opt.disableflags & mjDSBL_CLAMPCTRL);
+  int off = !!(m->opt.disableflags & mjDSBL_ACTUATION);
+  for (int i = 0; i < m->nu; i++) {
+    mjtNum u = osti_actClamp(d->ctrl[i], clamp && m->actuator_ctrllimited[i],
+                             m->actuator_ctrlrange + 2 * i);
+    if (m->actuator_dyntype[i] == mjDYN_NONE) {
+      c->act_input[i] = u;
+      continue;
+    }
+    int j = i - (m->nu - m->na);  // activation j belongs to actuator i (mj_fwdActuation)
+    c->act_next[j] = off ? d->act[j]
+                         : osti_actNext(m->actuator_dyntype[i], m->actuator_dynprm[i * mjNDYN],
+                                        m->actuator_actlimited[i], m->actuator_actrange + 2 * i,
+                                        d->act[j], u, h);
+    c->act_input[i] = c->act_next[j];
+  }
+}
+
+
+// the start of a substep at d's (q-, u-, act-): the actuator inputs, then Mt and f into the
+// world. Stages at q- are recomputed unless fresh (ost_step1 just ran them for the step's first
+// substep).
 static int startCallback(void* ctx, ostNum h) {
   stepContext* s = (stepContext*)ctx;
+  activation(s->c, s->c->m, s->d, h);
   if (s->c->opt.geometry == OST_GEOMETRY_NATIVE) {
     ost_startNative(s->c, s->d, h);  // core's own dynamics
   } else {
@@ -483,7 +519,8 @@ static int startCallback(void* ctx, ostNum h) {
 
 
 // a committed substep (d->qpos, d->qvel and d->qacc_warmstart already hold it): qacc, time, its
-// record for the gradient, the end state a next step continues from, statistics
+// record for the gradient (with act-), act = act+, the end state a next step continues from,
+// statistics
 static int commitCallback(void* ctx, ostNum h, const ostNewtonStats* ns, int bits) {
   stepContext* s = (stepContext*)ctx;
   ostContext* c = s->c;
@@ -497,6 +534,7 @@ static int commitCallback(void* ctx, ostNum h, const ostNewtonStats* ns, int bit
   if (status) {
     return status;
   }
+  memcpy(d->act, c->act_next, m->na * sizeof(mjtNum));
   saveState(m, d, c->state_end);
   c->warm_valid = 1;
   c->stats.substeps++;
