@@ -8,6 +8,7 @@
 // The step's unknowns y = (u, lambda) (u = u+, nv; lambda, nrow) solve R(y; q-, u-, ctrl, theta)
 // = 0 with, for every row kind, the root that osti_evaluate's Newton model drives to zero:
 //   dynamics   Mt (u - u-) - h (f + J(q+)' lambda)                               (eq. 2)
+//   equality   (c(q+) + (E + reg h^2 d_eq) lambda) / h, d_eq osti_equalityScale  (eq. 3)
 //   contact    FB(gap + reg k lambda, k lambda) / h,  k = h^2 J_i Mt^-1 J_i'     (eq. 4)
 //   friction   k_f (lambda_f - proj_{|.| <= mu lambda_n}(z)),
 //              z = lambda_f - (J_f u + c_s lambda_f) / k_f                       (eq. 5-7)
@@ -369,7 +370,7 @@ OST_HD void osti_stepResidual(ostWorld* w, const ostNum* u, const ostNum* lambda
     ostNum lam = lambda[i];
     switch (row->type) {
     case OST_ROW_EQUALITY:
-      r[i] = (row->pos + row->alpha * lam) / h;
+      r[i] = (row->pos + (row->alpha + reg * h * h * osti_equalityScale(w, i)) * lam) / h;
       break;
     case OST_ROW_LIMIT:
     case OST_ROW_CONTACT: {

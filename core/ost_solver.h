@@ -593,6 +593,23 @@ OST_HD ostNum osti_dryRow(ostWorld* w, int i, ostNum reg) {
 }
 
 
+// the effective-mass scale of equality row i: the largest J_k Mt^-1 J_k' over the rows of its
+// equality (consecutive, same object), so that a row that moves nothing (a planar loop's
+// out-of-plane row) or little still gets the relative compliance of its constraint
+OST_HD ostNum osti_equalityScale(const ostWorld* w, int i) {
+  int obj = w->rows[i].obj[0], a = i, b = i;
+  while (a > 0 && w->rows[a - 1].type == OST_ROW_EQUALITY && w->rows[a - 1].obj[0] == obj) a--;
+  while (b + 1 < w->nrow && w->rows[b + 1].type == OST_ROW_EQUALITY && w->rows[b + 1].obj[0] == obj) {
+    b++;
+  }
+  ostNum d = 0;
+  for (int k = a; k <= b; k++) {
+    d = w->diag[k] > d ? w->diag[k] : d;
+  }
+  return d;
+}
+
+
 // evaluate the iterate (qvel, lambda) with the rows and J filled for q(qvel): fills
 // Minv_rdyn, diag, Ju and the row form (c, rho); returns the squared merit residual
 //   |Mt^-1 r_dyn|^2 + sum_i m_i^2,  every term a velocity (m/s or rad/s)
@@ -630,8 +647,9 @@ OST_HD ostNum osti_evaluate(ostWorld* w, const ostSolverOptions* opt) {
     switch (r->type) {
     case OST_ROW_EQUALITY: {
       // c(q+) + E lambda = 0, linearized as h J du + E dlambda = -r                   (eq. 3)
-      w->c[i] = r->alpha / h;
-      w->rho[i] = (r->pos + r->alpha * lam) / h;
+      ostNum E = r->alpha + opt->reg * h * h * osti_equalityScale(w, i);
+      w->c[i] = E / h;
+      w->rho[i] = (r->pos + E * lam) / h;
       m_i = w->rho[i];
       break;
     }
