@@ -242,14 +242,23 @@ int ost_checkStep(const mjModel* m, const ostOptions* opt, char* err, int err_sz
   if (opt->geometry == OST_GEOMETRY_NATIVE) {
     ost_refusalsNative(m, &l);
   } else {
-    // the mujoco provider collides with MuJoCo 2.2.2's functions
+    // the mujoco provider collides height fields against primitives with core's functions
+    // (ost_corePair); against a mesh, with MuJoCo 2.2.2's, whose distances leave out the margin
     for (int g = 0; g < m->ngeom && opt->margin > 0; g++) {
-      if (m->geom_type[g] == mjGEOM_HFIELD) {
-        ost_refuse(&l, "height field",
-                   ost_objName(m, mjOBJ_GEOM, g, nb, sizeof(nb)),
-                   "ostrich/margin > 0 with the mujoco geometry provider (MuJoCo 2.2.2 reports "
-                   "height-field contact distances without the margin, which breaks the "
-                   "look-ahead; use ostrich/margin 0, or ostrich/geometry 1, native)");
+      if (m->geom_type[g] != mjGEOM_HFIELD) {
+        continue;
+      }
+      for (int g2 = 0; g2 < m->ngeom; g2++) {
+        if (m->geom_type[g2] == mjGEOM_MESH
+            && ((m->geom_contype[g] & m->geom_conaffinity[g2])
+                || (m->geom_contype[g2] & m->geom_conaffinity[g]))) {
+          ost_refuse(&l, "height field", ost_objName(m, mjOBJ_GEOM, g, nb, sizeof(nb)),
+                     "contacts with a mesh and ostrich/margin > 0 with the mujoco geometry "
+                     "provider (MuJoCo 2.2.2 reports height-field contact distances without the "
+                     "margin, which breaks the look-ahead; use ostrich/margin 0, or "
+                     "ostrich/geometry 1, native)");
+          break;
+        }
       }
     }
     int terrain = ost_terrainGeom(m);
