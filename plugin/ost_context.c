@@ -18,6 +18,9 @@ static ostContext* registry = NULL;
 
 
 static void freeContext(ostContext* c) {
+  if (c->dg) {
+    mj_deleteData(c->dg);
+  }
   if (c->mo) {
     mj_deleteModel(c->mo);
   }
@@ -40,6 +43,11 @@ static void freeContext(ostContext* c) {
 
 
 int ost_rowCapacity(const mjModel* m) {
+  return ost_rowCapacityFor(m, m->nconmax);
+}
+
+
+int ost_rowCapacityFor(const mjModel* m, int ncon) {
   // equality rows (weld: 6), two limit sides per joint and tendon, dry friction per dof and
   // tendon, a contact's normal and friction rows, a servo per actuator
   int condim = 3;  // rows per contact: 1 + the friction rows of the largest condim
@@ -49,7 +57,7 @@ int ost_rowCapacity(const mjModel* m) {
   for (int i = 0; i < m->npair; i++) {
     condim = m->pair_dim[i] > condim ? m->pair_dim[i] : condim;
   }
-  return 6 * m->neq + 2 * m->njnt + 3 * m->ntendon + m->nv + condim * m->nconmax + m->nu;
+  return 6 * m->neq + 2 * m->njnt + 3 * m->ntendon + m->nv + condim * ncon + m->nu;
 }
 
 
@@ -109,6 +117,53 @@ int ost_rowWidth(const mjModel* m) {
 }
 
 
+int ost_growCapacity(ostContext* c, int ncon, int njmax) {
+  const mjModel* m = c->m;
+  int nrow_max = ost_rowCapacityFor(m, ncon);
+  int ncol = ost_rowWidth(m);
+  size_t sz = ostu_worldSize(m->nv, ncol, nrow_max);
+  void* buf = aligned_alloc(64, (sz + 63) / 64 * 64);
+  if (!buf) {
+    return OST_ERR_MEMORY;
+  }
+  memset(buf, 0, sz);
+  free(c->world_buf);
+  c->world_buf = buf;
+  ostu_worldInit(&c->world, c->world_buf, m->nv, ncol, nrow_max, 0);
+  c->ncon_cap = ncon;
+  c->njmax_cap = njmax;
+  c->warm_valid = 0;
+  if (c->dg) {
+    mj_deleteData(c->dg);
+    c->dg = NULL;
+  }
+  c->native_dirty = 1;       // packed again with room for ncon contacts
+  c->adj_model_block = NULL; // the adjoint's work is sized to the rows: made again
+  return OST_OK;
+}
+
+
+mjData* ost_geometryData(ostContext* c) {
+  if (!c->dg && c->mo) {
+    // MuJoCo 2.2.2 sizes an mjData's contacts and constraint rows by the model's nconmax and
+    // njmax: make it with the context's capacity, then give mo back the user's sizes
+    int nconmax = c->mo->nconmax, njmax = c->mo->njmax;
+    c->mo->nconmax = c->ncon_cap;
+    c->mo->njmax = c->njmax_cap;
+    c->dg = mj_makeData(c->mo);
+    c->mo->nconmax = nconmax;
+    c->mo->njmax = njmax;
+    if (c->dg) {
+      // MuJoCo prints a warning the first time it is counted: these overflows are Ostrich's to
+      // answer (ost_rowsMujoco compares the counts), not the user's to read
+      c->dg->warning[mjWARN_CONTACTFULL].number = 1;
+      c->dg->warning[mjWARN_CNSTRFULL].number = 1;
+    }
+  }
+  return c->dg;
+}
+
+
 // allocate a context for (m, d); options from the model, check deferred to the step
 static ostContext* newContext(const mjModel* m, const mjData* d) {
   ostContext* c = (ostContext*)calloc(1, sizeof(ostContext));
@@ -125,17 +180,11 @@ static ostContext* newContext(const mjModel* m, const mjData* d) {
   c->state_start = (mjtNum*)calloc(1 + m->nq + 2 * m->nv + m->na, sizeof(mjtNum));
   c->act_input = (mjtNum*)calloc(m->nu + 2 * m->na + 1, sizeof(mjtNum));
   c->act_next = c->act_input + m->nu;
-  int nrow_max = ost_rowCapacity(m);
-  int ncol = ost_rowWidth(m);
-  size_t sz = ostu_worldSize(m->nv, ncol, nrow_max);
-  c->world_buf = aligned_alloc(64, (sz + 63) / 64 * 64);
   if (!c->servo || !c->qpos_prev || !c->state_end || !c->state_start || !c->jac
-      || !c->act_input || !c->world_buf) {
+      || !c->act_input || ost_growCapacity(c, m->nconmax, m->njmax)) {
     freeContext(c);
     return NULL;
   }
-  memset(c->world_buf, 0, sz);
-  ostu_worldInit(&c->world, c->world_buf, m->nv, ncol, nrow_max, 0);
   ost_defaultOptions(&c->opt);
   c->model_dirty = 1;
   return c;
@@ -307,4 +356,11 @@ double ost_maxPenetration(const mjModel* m, const mjData* d) {
   free(block);
   free(hdata);
   return pen;
+}
+
+
+int ost_capacityFail(ostContext* c, const char* what, int cap) {
+  c->overflow_cap = strcmp(what, "constraint") ? 1 : 2;
+  return ost_fail(c, OST_ERR_OVERFLOW, "%s capacity exceeded: more than %d with the look-ahead",
+                  what, cap);
 }

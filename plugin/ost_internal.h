@@ -68,7 +68,16 @@ typedef struct ostContext_ {
   mjtNum*        act_next;        // the substep's act+ (na) after act_input's nu, then
                                   // room for act- while mj_fwdActuation reads act+  (na)
   int            warm_valid;      // 1 if state_end and the world's warm rows are valid
-  mjtNum*        jac;             // contact Jacobian scratch                      (6 x nv)
+  mjtNum*        jac;             // contact Jacobian scratch                     (12 x nv)
+  int            ncon_cap;        // contacts the iterates have room for: m->nconmax, doubled
+                                  // whenever the look-ahead overflows it (ost_growCapacity)
+  int            njmax_cap;       // MuJoCo's constraint rows the iterates have room for
+                                  // (equalities, limits, dry friction): m->njmax, doubled
+                                  // whenever the look-ahead's limit rows overflow it
+  int            overflow_cap;    // the last failure was a contact or row capacity (1) or a
+                                  // constraint capacity (2), else 0
+  mjData*        dg;              // mujoco provider: private mjData of mo for the iterates,
+                                  // sized to ncon_cap (NULL until needed)
   void*          world_buf;       // the core world's single allocation
   ostModel       native;          // native provider: packed model (geometry option 1)
   void*          native_block;    // its single allocation
@@ -112,6 +121,13 @@ ostContext* ost_findContext(const mjData* d);
 // record a failure message on the context and return status
 int ost_fail(ostContext* c, int status, const char* fmt, ...);
 
+// a contact, constraint or row capacity (what) of cap overflowed by the iterates: an
+// OST_ERR_OVERFLOW that ost_step2 answers by growing the capacity (c->overflow_cap = 1)
+int ost_capacityFail(ostContext* c, const char* what, int cap);
+
+// the most contacts a context's iterates get room for: OST_GROWTH_MAX times the model's nconmax
+#define OST_GROWTH_MAX 64
+
 // fill the world's rows and Jacobians at the configuration in d->qpos using MuJoCo's own
 // kinematics and collision on the private model (the `mujoco` geometry provider)
 int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h);
@@ -129,8 +145,8 @@ void ost_startNative(ostContext* c, const mjData* d, mjtNum h);
 void ost_contactKey(const mjModel* m, const mjData* d, const mjContact* con, mjtNum key[3]);
 
 // 1 if geoms g1, g2 are a pair that both providers collide with core's own functions, not
-// MuJoCo's MPR: cylinder-box (core/ost_collision_cylbox.h) and height field-cylinder
-// (core/ost_collision_cylsurf.h)
+// MuJoCo's: cylinder-box, height field-primitive, plane-mesh, plane-cylinder and box-box
+// (plugin/ost_pack.c coreTypes)
 int ost_corePair(const mjModel* m, int g1, int g2);
 
 // contacts of core pair (g1, g2) of m at d's kinematics with the given margin into con (room
@@ -179,6 +195,18 @@ int ost_syncModel(ostContext* c, const mjModel* m);
 // contacts (<= 3 per contact, capacity nconmax) and one servo row per actuator (ost_context.c)
 int ost_rowCapacity(const mjModel* m);
 
+// rows of m with room for ncon contacts (ost_rowCapacity is ncon = m->nconmax)
+int ost_rowCapacityFor(const mjModel* m, int ncon);
+
+// give the context's iterates room for ncon contacts (and the rows that go with them) and njmax
+// of MuJoCo's constraint rows: the world is reallocated (the warm start is dropped), the private
+// mjData and the native packing are rebuilt at the next use. Returns OST_OK or OST_ERR_MEMORY.
+int ost_growCapacity(ostContext* c, int ncon, int njmax);
+
+// the mujoco provider's private mjData for the iterates, made on first use with room for
+// c->ncon_cap contacts; NULL if allocation fails
+mjData* ost_geometryData(ostContext* c);
+
 // the widest constraint row of m in dofs: two dof chains of the kinematic tree (ostu_rowWidth),
 // or the chains a tendon's bodies span, at most nv (ost_context.c)
 int ost_rowWidth(const mjModel* m);
@@ -191,7 +219,7 @@ ostSolverOptions ost_solverOptions(const ostOptions* o);
 // recorded one did
 size_t ost_warmSize(const ostContext* c);
 void ost_warmSave(const ostContext* c, void* buf);
-void ost_warmLoad(ostContext* c, const void* buf);
+int ost_warmLoad(ostContext* c, const void* buf);
 
 // bytes of one substep record with nrow rows
 size_t ost_recordSize(const mjModel* m, int nrow);

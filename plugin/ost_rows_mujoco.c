@@ -168,7 +168,7 @@ static int contactRows(ostContext* c, const mjData* d, int g1, int g2, const mjt
   mjtNum scale[OST_MAXFRIC];
   int nf = osti_frictionSlots(condim, fr[0], fr[1], fr[2], slot, scale);
   if (*n + 1 + nf > w->nrow_max) {
-    return ost_fail(c, OST_ERR_OVERFLOW, "row capacity %d exceeded", w->nrow_max);
+    return ost_capacityFail(c, "row", w->nrow_max);
   }
   ostNum* J = osti_rowScratch(w, *n);  // zero off the chains (ost_rowsMujoco)
   int last1, last2;
@@ -281,7 +281,7 @@ int ost_collideCorePair(const mjModel* m, const mjData* d, const ostNum* hfield_
 
 
 int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
-  const mjModel* m = c->mo;
+  const mjModel* m = c->mo;  // its nconmax and njmax are d's (ost_step.c evalGeometry)
   ostWorld* w = &c->world;
   int nv = m->nv, n = 0;
   int warn_con = d->warning[mjWARN_CONTACTFULL].number;
@@ -300,19 +300,14 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
   mj_makeConstraint(m, d);
   d->ncon = ncon;
   if (d->warning[mjWARN_CONTACTFULL].number != warn_con) {
-    return ost_fail(c, OST_ERR_OVERFLOW, "contact capacity exceeded: more than nconmax=%d "
-                    "contacts with the look-ahead (ostrich/margin %g m widens every margin, so "
-                    "Ostrich sees contacts MuJoCo's step does not): raise <size nconmax=...> or "
-                    "lower ostrich/margin", m->nconmax, c->opt.margin);
+    return ost_capacityFail(c, "contact", c->ncon_cap);
   }
   if (d->warning[mjWARN_CNSTRFULL].number != warn_efc) {
-    return ost_fail(c, OST_ERR_OVERFLOW, "constraint capacity exceeded: more than njmax=%d "
-                    "rows with the look-ahead (ostrich/margin %g m widens every margin): raise "
-                    "<size njmax=...> or lower ostrich/margin", m->njmax, c->opt.margin);
+    return ost_capacityFail(c, "constraint", m->njmax);
   }
 #define NEED_ROWS(k)                                                                   \
   if (n + (k) > w->nrow_max) {                                                         \
-    return ost_fail(c, OST_ERR_OVERFLOW, "row capacity %d exceeded", w->nrow_max);     \
+    return ost_capacityFail(c, "row", w->nrow_max);                                    \
   }
 
   // equality, dry-friction and limit rows: MuJoCo's rows, whose J is d(efc_pos)/dq in tangent

@@ -9,12 +9,9 @@ int ost_rowsNative(ostContext* c, mjData* d, mjtNum h) {
   switch (osti_nativeIterate(&c->native, &c->kin, &c->world, d->qpos, c->act_input, c->opt.margin,
                              h)) {
   case OST_ROWS_CONTACT_OVERFLOW:
-    return ost_fail(c, OST_ERR_OVERFLOW, "contact capacity exceeded: more than nconmax=%d "
-                    "contacts with the look-ahead (ostrich/margin %g m widens every margin, so "
-                    "Ostrich sees contacts MuJoCo's step does not): raise <size nconmax=...> or "
-                    "lower ostrich/margin", c->mo->nconmax, c->opt.margin);
+    return ost_capacityFail(c, "contact", c->ncon_cap);
   case OST_ROWS_ROW_OVERFLOW:
-    return ost_fail(c, OST_ERR_OVERFLOW, "row capacity %d exceeded", c->world.nrow_max);
+    return ost_capacityFail(c, "row", c->world.nrow_max);
   case OST_ROWS_WIDTH_OVERFLOW:
     return ost_fail(c, OST_ERR_OVERFLOW, "a constraint row touches more than %d dofs (the "
                     "width sized from the model's kinematic tree)", c->world.ncol);

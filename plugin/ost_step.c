@@ -6,6 +6,7 @@
 // Invariant: on any failure the state (qpos, qvel, act, time) is left as it was before the step
 // and a message is recorded; the library never exits or calls mju_error.
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -50,7 +51,7 @@ int ost_nativeReady(ostContext* c, const mjModel* m) {
   }
   free(c->native_block);
   c->native_block = NULL;
-  int status = ost_packModel(c->mo, c->mo->nconmax, &c->native, &c->native_block, c->err,
+  int status = ost_packModel(c->mo, c->ncon_cap, &c->native, &c->native_block, c->err,
                              sizeof(c->err));
   if (status) {
     return status;
@@ -178,7 +179,17 @@ static int evalGeometry(ostContext* c, mjData* d, const mjtNum* u, mjtNum h) {
   memcpy(d->qpos, c->qpos_prev, c->mo->nq * sizeof(mjtNum));
   if (c->opt.geometry != OST_GEOMETRY_NATIVE) {
     mj_integratePos(c->mo, d->qpos, u, h);
-    return ost_rowsMujoco(c, d, h);
+    // MuJoCo's stages on the private mjData, whose capacity can exceed d's (ost_growCapacity):
+    // mo carries that capacity while they run
+    mjData* dg = c->dg;
+    memcpy(dg->qpos, d->qpos, c->mo->nq * sizeof(mjtNum));
+    int nconmax = c->mo->nconmax, njmax = c->mo->njmax;
+    c->mo->nconmax = c->ncon_cap;
+    c->mo->njmax = c->njmax_cap;
+    int status = ost_rowsMujoco(c, dg, h);
+    c->mo->nconmax = nconmax;
+    c->mo->njmax = njmax;
+    return status;
   }
   osti_integratePos(&c->native, d->qpos, u, h);
   return ost_rowsNative(c, d, h);
@@ -350,11 +361,11 @@ static void publishForces(ostContext* c, const mjModel* m, mjData* d) {
 }
 
 
-// bytes of a context's warm-start state: validity, rows and multipliers of the last result,
-// and the state it ended in
+// bytes of a context's warm-start state at most: a header (validity, rows, the contact
+// capacity they came with), the state it ended in, the multipliers and rows of the last result
 size_t ost_warmSize(const ostContext* c) {
   const mjModel* m = c->m;
-  return 2 * sizeof(int) + (1 + m->nq + 2 * (size_t)m->nv) * sizeof(mjtNum)
+  return 4 * sizeof(int) + (1 + m->nq + 2 * (size_t)m->nv) * sizeof(mjtNum)
          + c->world.nrow_max * (sizeof(ostRow) + sizeof(mjtNum));
 }
 
@@ -365,25 +376,33 @@ void ost_warmSave(const ostContext* c, void* buf) {
   int* head = (int*)buf;
   head[0] = c->warm_valid;
   head[1] = w->nrow_warm;
-  mjtNum* p = (mjtNum*)(head + 2);
+  head[2] = c->ncon_cap;
+  head[3] = 0;
+  mjtNum* p = (mjtNum*)(head + 4);
   memcpy(p, c->state_end, (1 + m->nq + 2 * m->nv) * sizeof(mjtNum));
   p += 1 + m->nq + 2 * m->nv;
   memcpy(p, w->lambda_warm, w->nrow_warm * sizeof(mjtNum));
-  memcpy(p + w->nrow_max, w->rows_warm, w->nrow_warm * sizeof(ostRow));
+  memcpy(p + w->nrow_warm, w->rows_warm, w->nrow_warm * sizeof(ostRow));
 }
 
 
-void ost_warmLoad(ostContext* c, const void* buf) {
+int ost_warmLoad(ostContext* c, const void* buf) {
   const mjModel* m = c->m;
-  ostWorld* w = &c->world;
   const int* head = (const int*)buf;
+  // the rows came from a context whose capacity had grown: grow this one alike first (which
+  // drops its own warm start)
+  if (head[2] > c->ncon_cap && ost_growCapacity(c, head[2], c->njmax_cap)) {
+    return ost_fail(c, OST_ERR_MEMORY, "cannot grow the contact capacity to %d", head[2]);
+  }
+  ostWorld* w = &c->world;
   c->warm_valid = head[0];
   w->nrow_warm = head[1];
-  const mjtNum* p = (const mjtNum*)(head + 2);
+  const mjtNum* p = (const mjtNum*)(head + 4);
   memcpy(c->state_end, p, (1 + m->nq + 2 * m->nv) * sizeof(mjtNum));
   p += 1 + m->nq + 2 * m->nv;
   memcpy(w->lambda_warm, p, w->nrow_warm * sizeof(mjtNum));
-  memcpy(w->rows_warm, p + w->nrow_max, w->nrow_warm * sizeof(ostRow));
+  memcpy(w->rows_warm, p + w->nrow_warm, w->nrow_warm * sizeof(ostRow));
+  return OST_OK;
 }
 
 
@@ -552,13 +571,14 @@ static int failBits(int status) {
 
 
 // one step of size h from d's state by core's step driver (core/ost_step.h osti_stepDriven:
-// substeps, splitting, commit) with the context's provider. Returns OST_OK or the failure's
-// status, its message recorded; the caller restores the state on a failure.
-static int advance(ostContext* c, mjData* d, mjtNum h) {
+// substeps, splitting, commit) with the context's provider; fresh: ost_step1's stages at q- are
+// current in d. Returns OST_OK or the failure's status, its message recorded; the caller
+// restores the state on a failure.
+static int advance(ostContext* c, mjData* d, mjtNum h, int fresh) {
   const ostOptions* o = &c->opt;
   ostStepSettings set = {ost_solverOptions(o), o->linesearch, o->split_depth, o->warmstart, 0, h,
                          o->split_tol, o->margin, o->depenetration_speed};
-  stepContext s = {c, d, 1, {0}, {0}};
+  stepContext s = {c, d, fresh, {0}, {0}};
   ostStepDriver drv = {&s, startCallback, geometryCallback, newtonCallback, commitCallback,
                        failBits, s.merit_k, s.nrow_k, mjNSOLVER};
   // the multipliers start from the last step's if this step continues from its result
@@ -573,6 +593,57 @@ static int advance(ostContext* c, mjData* d, mjtNum h) {
     return ost_fail(c, OST_ERR_NUMERIC, "M + hD is not positive definite");
   }
   return (bits & OST_STEP_FAILED) ? status : OST_OK;
+}
+
+
+// advance(), growing the iterates' capacity when the look-ahead overflows it: the contacts,
+// constraint rows and rows are doubled (ost_growCapacity) and the step is taken again from its
+// start, up to OST_GROWTH_MAX times the model's nconmax, as MuJoCo would go on past a full
+// contact buffer. The capacity stays grown for the next steps.
+static int advanceGrowing(ostContext* c, const mjModel* m, mjData* d, mjtNum h) {
+  for (int fresh = 1;; fresh = 0) {
+    int status = OST_OK;
+    c->overflow_cap = 0;
+    if (c->opt.geometry != OST_GEOMETRY_NATIVE) {
+      mjData* dg = ost_geometryData(c);
+      if (!dg) {
+        return ost_fail(c, OST_ERR_MEMORY, "cannot allocate the iterates' mjData");
+      }
+      memcpy(dg->mocap_pos, d->mocap_pos, 3 * m->nmocap * sizeof(mjtNum));
+      memcpy(dg->mocap_quat, d->mocap_quat, 4 * m->nmocap * sizeof(mjtNum));
+    } else if ((status = ost_nativeReady(c, m))) {
+      return status;
+    }
+    status = advance(c, d, h, fresh);
+    c->stats.ncon_capacity = c->ncon_cap;
+    if (status != OST_ERR_OVERFLOW || !c->overflow_cap) {
+      return status;
+    }
+    int contacts = c->overflow_cap == 1;
+    long cap = contacts ? c->ncon_cap : c->njmax_cap;
+    long base = contacts ? m->nconmax : m->njmax;
+    if (2 * cap > OST_GROWTH_MAX * (base > 0 ? base : 1)) {
+      char why[sizeof(c->err)];
+      memcpy(why, c->err, sizeof(why));
+      return ost_fail(c, OST_ERR_OVERFLOW, "%s, after Ostrich grew its own capacity to %ld "
+                      "(%d times %s; ostrich/margin %g m widens every margin, so Ostrich sees "
+                      "contacts and limits MuJoCo's step does not): raise <size %s=...> or "
+                      "lower ostrich/margin", why, cap, OST_GROWTH_MAX,
+                      contacts ? "nconmax" : "njmax", c->opt.margin,
+                      contacts ? "nconmax" : "njmax");
+    }
+    // again from the step's start, with room for twice the contacts
+    restoreStart(c, m, d);
+    c->rec_n = 0;
+    c->rec_bytes = 0;
+    memset(&c->stats, 0, sizeof(c->stats));
+    if (ost_growCapacity(c, contacts ? 2 * c->ncon_cap : c->ncon_cap,
+                         contacts ? c->njmax_cap : 2 * c->njmax_cap)) {
+      return ost_fail(c, OST_ERR_MEMORY, "cannot grow the capacity to %ld", 2 * cap);
+    }
+    c->world.lookahead = c->opt.margin;
+    c->world.depen_speed = c->opt.depenetration_speed;
+  }
 }
 
 
@@ -603,7 +674,7 @@ static int step2(ostContext* c, const mjModel* m, mjData* d) {
   c->rec_n = 0;
   c->rec_bytes = 0;
   saveState(m, d, c->state_start);
-  if ((status = advance(c, d, h))) {
+  if ((status = advanceGrowing(c, m, d, h))) {
     if (status == OST_ERR_OVERFLOW) {
       c->stats.status |= OST_OVERFLOW;
     }

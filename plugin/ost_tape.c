@@ -26,6 +26,7 @@ struct ostTape_ {
   int     input_cap;              // capacity of inputs in steps
   void*   ckpt;                   // per segment: state and warm start (checkpoints)
   size_t  ckpt_sz;                // bytes per checkpoint
+  int     ncon_cap;               // largest contact capacity of the recorded steps' context
   int     ckpt_cap;               // capacity of ckpt
   mjData* scratch;                // private mjData: recomputation and the backward pass
   int     bad_step;               // first step not solved to tol (warning status), or -1
@@ -148,6 +149,28 @@ static int appendRecords(ostTape* t, const ostContext* c) {
 }
 
 
+// make every checkpoint slot hold sz bytes: a context whose contact capacity grew has a larger
+// warm start (ost_warmSize), so the slots are widened, the saved ones moved (last first)
+static int widenCheckpoints(ostTape* t, size_t sz) {
+  if (sz <= t->ckpt_sz) {
+    return 0;
+  }
+  sz = (sz + 15) / 16 * 16;
+  if (t->ckpt_cap) {
+    void* p = realloc(t->ckpt, (size_t)t->ckpt_cap * sz);
+    if (!p) {
+      return 1;
+    }
+    t->ckpt = p;
+    for (int k = t->ckpt_cap - 1; k > 0; k--) {
+      memmove((char*)t->ckpt + k * sz, (char*)t->ckpt + k * t->ckpt_sz, t->ckpt_sz);
+    }
+  }
+  t->ckpt_sz = sz;
+  return 0;
+}
+
+
 // the state and warm start of d (context c) into checkpoint k
 static void saveCheckpoint(ostTape* t, const mjData* d, const ostContext* c, int k) {
   const mjModel* m = t->m;
@@ -180,7 +203,8 @@ int ost_tapeStep(ostTape* t, const mjModel* m, mjData* d) {
     return tapeFail(t, OST_ERR_MEMORY, "cannot grow the tape");
   }
   if (S && k % S == 0) {
-    if (grow(&t->ckpt, &t->ckpt_cap, k / S + 1, t->ckpt_sz)) {
+    size_t need = (1 + m->nq + 2 * (size_t)m->nv) * sizeof(mjtNum) + ost_warmSize(c);
+    if (widenCheckpoints(t, need) || grow(&t->ckpt, &t->ckpt_cap, k / S + 1, t->ckpt_sz)) {
       return tapeFail(t, OST_ERR_MEMORY, "cannot grow the tape");
     }
     saveCheckpoint(t, d, c, k / S);
@@ -189,6 +213,7 @@ int ost_tapeStep(ostTape* t, const mjModel* m, mjData* d) {
   if (status && !OST_IS_WARNING(status)) {
     return tapeFail(t, status, ost_lastError(d));
   }
+  t->ncon_cap = c->ncon_cap > t->ncon_cap ? c->ncon_cap : t->ncon_cap;
   if (status && t->bad_step < 0) {
     // recorded, but the backward pass will refuse it (its gradient is not exact)
     t->bad_step = k;
@@ -226,7 +251,9 @@ static int recomputeSegment(ostTape* t, int k0, int k1) {
   memcpy(d->qpos, s + 1, m->nq * sizeof(mjtNum));
   memcpy(d->qvel, s + 1 + m->nq, m->nv * sizeof(mjtNum));
   memcpy(d->qacc_warmstart, s + 1 + m->nq + m->nv, m->nv * sizeof(mjtNum));
-  ost_warmLoad(c, s + 1 + m->nq + 2 * m->nv);
+  if (ost_warmLoad(c, s + 1 + m->nq + 2 * m->nv)) {
+    return tapeFail(t, OST_ERR_MEMORY, ost_lastError(d));
+  }
   t->rec_bytes = 0;
   for (int k = k0; k < k1; k++) {
     const mjtNum* in = t->inputs + (size_t)k * t->ninput;
@@ -261,6 +288,10 @@ int ost_tapeBackward(ostTape* t, const mjModel* m, const ostGradOptions* go, con
   int status;
   if ((status = ost_prepareContext(c, m))) {
     return tapeFail(t, status, c->err);
+  }
+  // the records' rows need the contact capacity the recorded steps grew to
+  if (t->ncon_cap > c->ncon_cap && ost_growCapacity(c, t->ncon_cap, c->njmax_cap)) {
+    return tapeFail(t, OST_ERR_MEMORY, "cannot grow the contact capacity");
   }
   if (t->bad_step >= 0) {
     char msg[400];

@@ -83,7 +83,9 @@ typedef enum ostStatus_ {         // result of a host call
 
 typedef enum ostStatusBit_ {      // per-step outcome bits (ostStats.status), same on CPU and GPU
   OST_NOT_CONVERGED = 1,          // best residual above tolerance after the Newton budget
-  OST_OVERFLOW      = 2,          // a fixed capacity was exceeded
+  OST_OVERFLOW      = 2,          // a capacity was exceeded: a failure in a batch world or
+                                  // beyond Ostrich's growth; with a step that succeeded, the
+                                  // user's contact buffer could not list every contact at q+
   OST_NAN           = 4,          // a non-finite value appeared
   OST_CHOL_FAIL     = 8,          // M + h*D was not positive definite
   OST_DEPENETRATED  = 16          // an initial violation (penetration, joint limit, equality)
@@ -226,7 +228,8 @@ typedef struct ostStats_ {
   int    islands;                 // independent Newton systems (constraint islands) of the
                                   // returned iterate, most of any substep; residual is the
                                   // worst island's (core/README.md section 1, "Islands")
-  int    pad;
+  int    ncon_capacity;           // contacts the iterates had room for: the model's nconmax,
+                                  // doubled each time the look-ahead overflowed it
 } ostStats;
 
 // Counts since d was first stepped by Ostrich (or ost_resetTotals), like mjData.warning[].number:

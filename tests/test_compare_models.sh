@@ -142,8 +142,8 @@ refused)
     '"1 refused by Ostrich, 1 failed to load" in out and
      any(l.strip().startswith("1 ") and "gaintype user" in l for l in
          out.split("refusal reasons")[1].splitlines())' "$csv"
-  # 20 resting spheres with room for 5 contacts: Ostrich's step fails (capacity), which an
-  # accepted model must not do, so the exit status says so
+  # 81 resting spheres where Ostrich may grow to 64 contacts: its step fails (capacity), which
+  # an accepted model must not do, so the exit status says so
   run compare models "$TEST_MODELS/too_many_contacts.xml" --duration 0.1 --h-scale 1 \
     --ctrl zero --engine ostrich --csv "$csv"
   expect_rc 1 "refused: a failed Ostrich step makes the exit status 1"

@@ -375,6 +375,33 @@ START_TEST(test_checkpoint) {
 END_TEST
 
 
+// a checkpointed tape over a model whose contacts outgrow its nconmax (25 spheres sliding on a
+// plane, nconmax 2): the stepping context grows its capacity after the first checkpoint was
+// saved (the checkpoints are widened) and the recomputing context grows when it loads them; the
+// gradient equals the recorded tape's bitwise
+START_TEST(test_checkpointGrownCapacity) {
+  ost_fixtureSetup();
+  ost_fixtureAllowWarnings(1);  // MuJoCo warns that the user's contact buffer is full
+  rollout* r = newRollout("../tests/models/many_contacts.xml", 0.01, 6, 0, 3);
+  const mjModel* m = r->m;
+  int nv = m->nv;
+  for (int j = 0; j < nv; j++) r->qvel0[j] = j % 3 == 2 ? 0 : 0.5 * ((j % 7) - 3) / 3.0;
+  mjtNum *q0 = calloc(nv, 8), *q1 = calloc(nv, 8), *u0 = calloc(nv, 8), *u1 = calloc(nv, 8);
+  ostGradOptions go;
+  ost_defaultGradOptions(&go);
+  adjointGrad(r, &go, 0, q0, u0, NULL, NULL);
+  adjointGrad(r, &go, 3, q1, u1, NULL, NULL);
+  double eq = relErr(q1, q0, nv), eu = relErr(u1, u0, nv);
+  printf("25 spheres, capacity grown: checkpointed vs recorded: qpos %.2e, qvel %.2e\n", eq, eu);
+  ck_assert_double_eq(eq, 0);
+  ck_assert_double_eq(eu, 0);
+  ck_assert_int_eq(ost_stats(r->d)->ncon_capacity, 32);
+  free(q0); free(q1); free(u0); free(u1);
+  freeRollout(r);
+}
+END_TEST
+
+
 // the truncated pull-back (contact geometry held fixed within a step) changes the robot's
 // gradient; the complete one is the one that equals finite differences
 START_TEST(test_truncate) {
@@ -471,6 +498,7 @@ int main(void) {
   tcase_add_test(tc, test_robotWheels);
   tcase_add_test(tc, test_robotWheelsCreep);
   tcase_add_test(tc, test_checkpoint);
+  tcase_add_test(tc, test_checkpointGrownCapacity);
   tcase_add_test(tc, test_truncate);
   tcase_add_test(tc, test_memoryPerStep);
   tcase_add_test(tc, test_adjointErrors);

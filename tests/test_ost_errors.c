@@ -122,6 +122,8 @@ START_TEST(test_nonFiniteInput) {
 }
 END_TEST
 
+// the model's contacts beyond what Ostrich may grow to (81 resting spheres, nconmax 1: room for
+// 64): the step fails with the reason and leaves the state as it was
 START_TEST(test_contactOverflow) {
   ost_fixtureSetup();
   ost_fixtureAllowWarnings(1);  // MuJoCo warns when its contact buffer is full
@@ -131,16 +133,46 @@ START_TEST(test_contactOverflow) {
   ck_assert_ptr_nonnull(m);
   mjData* d = mj_makeData(m);
   mjtNum z0 = d->qpos[2];
-  int status = OST_OK;
-  for (int k = 0; k < 20 && status == OST_OK; k++) status = ost_step(m, d);
-  ck_assert_int_eq(status, OST_ERR_OVERFLOW);
-  ck_assert_ptr_nonnull(strstr(ost_lastError(d), "nconmax"));
+  ck_assert_int_eq(ost_step(m, d), OST_ERR_OVERFLOW);
+  ck_assert_msg(strstr(ost_lastError(d), "nconmax") && strstr(ost_lastError(d), "grew"), "%s",
+                ost_lastError(d));
   ck_assert_int_ne(ost_stats(d)->status & OST_OVERFLOW, 0);
-  ck_assert(isfinite(d->qpos[2]) && d->qpos[2] <= z0 + 1e-9);
+  ck_assert_double_eq(d->qpos[2], z0);
+  ck_assert_double_eq(d->time, 0);
   ost_deleteData(d);
   mj_deleteModel(m);
 }
 END_TEST
+
+
+// 25 spheres with nconmax 2 (many_contacts.xml): Ostrich grows its own capacity (2, 4, ..., 32)
+// and every step converges with both providers, the spheres resting at their radius (the hard
+// contacts' allowance, 1e-6 m); the published contacts fill the user's buffer of 2, which the
+// status says (OST_OVERFLOW) and MuJoCo warns about, as stock MuJoCo would
+START_TEST(test_contactCapacityGrows) {
+  ost_fixtureSetup();
+  ost_fixtureAllowWarnings(1);
+  mjModel* m = ost_fixtureLoadModel("../tests/models/many_contacts.xml");
+  for (int geometry = 0; geometry < 2; geometry++) {
+    mjData* d = mj_makeData(m);
+    ostOptions o;
+    ck_assert_int_eq(ost_readOptions(m, &o, NULL, 0), OST_OK);
+    o.geometry = geometry;
+    ck_assert_int_eq(ost_setOptions(m, d, &o), OST_OK);
+    for (int k = 0; k < 100; k++) {
+      ck_assert_msg(ost_step(m, d) == OST_OK, "step %d: %s", k, ost_lastError(d));
+    }
+    ck_assert_int_eq(ost_stats(d)->ncon_capacity, 32);
+    ck_assert_int_ne(ost_stats(d)->status & OST_OVERFLOW, 0);
+    for (int b = 2; b < m->nbody; b++) {
+      ck_assert_double_eq_tol(d->xpos[3 * b + 2], 0.05, 1e-6);
+    }
+    ost_deleteData(d);
+  }
+  mj_deleteModel(m);
+}
+END_TEST
+
 
 START_TEST(test_badOptions) {
   ost_fixtureSetup();
@@ -189,6 +221,7 @@ int main(void) {
   tcase_add_test(tc, test_everyUnsupportedFeature);
   tcase_add_test(tc, test_nonFiniteInput);
   tcase_add_test(tc, test_contactOverflow);
+  tcase_add_test(tc, test_contactCapacityGrows);
   tcase_add_test(tc, test_badOptions);
   tcase_add_test(tc, test_malformedXml);
   suite_add_tcase(s, tc);

@@ -137,7 +137,8 @@ sed 's/^/  stderr: /' "$WORK/f.err"
 assert_ran f 50
 assert_ostrich f box_plane 50
 
-# (g) a contact capacity overflow (20 spheres, nconmax 5): every failed step is counted, the first
+# (g) a contact capacity overflow (81 spheres, nconmax 1, Ostrich grows to 64): every failed
+# step is counted, the first
 # is named with its cause, and each is taken by stock MuJoCo instead of freezing the state
 OVERFLOW="$MODELS/../tests/models/too_many_contacts.xml"
 run g "$PRELOAD" "" "$OVERFLOW" 200 1

@@ -280,7 +280,7 @@ OSTPY_API const char* ostpy_name(const ostpyPhysics* p, int type, int id) {
 // ostStats' and ostTotals' fields, in this order for ostpy_stats
 #define OSTPY_STATS(X) X(status) X(newton_iter) X(best_iter) X(pcr_iter) X(substeps)             \
   X(geometry_evals) X(ncon) X(nrow) X(residual) X(residual_first) X(max_penetration)            \
-  X(initial_violation) X(islands)
+  X(initial_violation) X(islands) X(ncon_capacity)
 #define OSTPY_TOTALS(X) X(steps) X(failed) X(unconverged) X(depenetrated) X(overflow)            \
   X(worst_residual) X(worst_initial_violation) X(last_failure) X(model_packs)
 
