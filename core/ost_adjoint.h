@@ -5,8 +5,9 @@
 // engine_derivative.c's role; also the exponential-map integration of qpos (mj_integratePos)
 // and its first-order inverse, which define the tangent space of ball and free joints.
 //
-// The step's unknowns y = (u, lambda) (u = u+, nv; lambda, nrow) solve R(y; q-, u-, ctrl, theta)
-// = 0 with, for every row kind, the root that osti_evaluate's Newton model drives to zero:
+// The step's unknowns y = (u, lambda) (u = u+, nv; lambda, nrow) solve R(y; q-, u-, act-, ctrl,
+// theta) = 0 (act- enters through the actuators' act+, ost_activation.h) with, for every row
+// kind, the root that osti_evaluate's Newton model drives to zero:
 //   dynamics   Mt (u - u-) - h (f + J(q+)' lambda)                               (eq. 2)
 //   equality   (c(q+) + (E + reg h^2 d_eq) lambda) / h, d_eq osti_equalityScale  (eq. 3)
 //   contact    FB(gap + reg k lambda, k lambda) / h,  k = h^2 J_i Mt^-1 J_i'     (eq. 4)
@@ -15,6 +16,7 @@
 //   servo      alpha (lambda - clamp(pos + b2 J u))                              (eq. 8)
 //   dry        k_f (lambda - clamp(z, -mu, mu)), z = lambda - (J u + c_s lambda) / k_f
 // with q+ = q- (+) h u. Scaling a row does not move the root, only conditions the Jacobian.
+// The step's outputs are O = (dq+, u+, act+) (2 nv + na): act+ is explicit in (act-, ctrl).
 // Invariant: functions here write only their outputs and the world they are given.
 #ifndef OSTRICH_CORE_OST_ADJOINT_H_
 #define OSTRICH_CORE_OST_ADJOINT_H_
@@ -55,16 +57,17 @@ typedef struct ostdStep_ {        // one committed (sub)step, as its backward pa
   const int*    pair_fric_geom;   // per candidate pair: the geoms whose friction it takes
                                   // (-1: none), so dmu/dtheta                  (npair x 2)
   const double* pair_fric_weight; // their weights (1, or 1/2 each at a tie)     (npair x 2)
+  const double* act_prev;         // act-, the activations at the start (NULL if na = 0)  (na)
 } ostdStep;
 
 
 // the implicit function theorem on one step's Jacobian G (ost_adjoint_jacobian.h's layout: ny
-// residual rows then 2 nv output rows, ncol columns y then xi): with g = (gq, gu) the cotangents
-// of (dq+, u+),  K' w = -O_y' g  (K = R_y),  gxi = O_xi' g + R_xi' w  (ncol - ny entries).
-// Plain doubles whatever ostNum is. K (ny x ny), piv (ny) and w (ny) are scratch.
-// Returns 0, or 1 + the column where K is singular.
-OST_HD int osti_adjointSolve(const double* G, int ny, int nv, int ncol, double* K, int* piv,
-                             double* w, const double* gq, const double* gu, double* gxi) {
+// residual rows then nx = 2 nv + na output rows, ncol columns y then xi): with g (nx) the
+// cotangents of O = (dq+, u+, act+),  K' w = -O_y' g  (K = R_y),  gxi = O_xi' g + R_xi' w
+// (ncol - ny entries). Plain doubles whatever ostNum is. K (ny x ny), piv (ny) and w (ny) are
+// scratch. Returns 0, or 1 + the column where K is singular.
+OST_HD int osti_adjointSolve(const double* G, int ny, int nx, int ncol, double* K, int* piv,
+                             double* w, const double* g, double* gxi) {
   for (int i = 0; i < ny; i++) {
     for (int j = 0; j < ny; j++) {
       K[(size_t)i * ny + j] = G[(size_t)i * ncol + j];
@@ -76,8 +79,8 @@ OST_HD int osti_adjointSolve(const double* G, int ny, int nv, int ncol, double* 
   }
   for (int j = 0; j < ny; j++) {
     double s = 0;
-    for (int i = 0; i < nv; i++) {
-      s += G[(size_t)(ny + i) * ncol + j] * gq[i] + G[(size_t)(ny + nv + i) * ncol + j] * gu[i];
+    for (int i = 0; i < nx; i++) {
+      s += G[(size_t)(ny + i) * ncol + j] * g[i];
     }
     w[j] = -s;
   }
@@ -85,8 +88,8 @@ OST_HD int osti_adjointSolve(const double* G, int ny, int nv, int ncol, double* 
   for (int j = 0; j < ncol - ny; j++) {
     int col = ny + j;
     double s = 0;
-    for (int i = 0; i < nv; i++) {
-      s += G[(size_t)(ny + i) * ncol + col] * gq[i] + G[(size_t)(ny + nv + i) * ncol + col] * gu[i];
+    for (int i = 0; i < nx; i++) {
+      s += G[(size_t)(ny + i) * ncol + col] * g[i];
     }
     for (int i = 0; i < ny; i++) {
       s += G[(size_t)i * ncol + col] * w[i];
@@ -112,6 +115,7 @@ typedef struct ostStepRec_ {      // one committed substep (pointers into a reco
   double* qvel_prev;              // u-                                                   (nv)
   double* qvel;                   // u+                                                   (nv)
   double* ctrl;                   // controls                                             (nu)
+  double* act_prev;               // act-                                                 (na)
   double* lambda;                 // multipliers                                    (nrow_max)
   void*   rows;                   // rows (ostRow of the double build)              (nrow_max)
 } ostStepRec;
@@ -119,7 +123,7 @@ typedef struct ostStepRec_ {      // one committed substep (pointers into a reco
 
 // bytes of one record for sizes s and row capacity nrow_max (a 64-byte multiple)
 OST_HD size_t ostu_stepRecSize(ostSizes s, int nrow_max) {
-  size_t nd = 1 + (size_t)s.nq + 2 * (size_t)s.nv + s.nu + nrow_max;
+  size_t nd = 1 + (size_t)s.nq + 2 * (size_t)s.nv + s.nu + s.na + nrow_max;
   return OST_ALIGN64(2 * sizeof(int) + nd * sizeof(double) + nrow_max * OST_ROW_BYTES);
 }
 
@@ -134,6 +138,7 @@ OST_HD void ostu_stepRecView(ostStepRec* r, char* p, ostSizes s, int nrow_max) {
   r->qvel_prev = d;      d += s.nv;
   r->qvel = d;           d += s.nv;
   r->ctrl = d;           d += s.nu;
+  r->act_prev = d;       d += s.na;
   r->lambda = d;         d += nrow_max;
   r->rows = d;
 }
@@ -159,12 +164,12 @@ typedef struct ostAdjointSettings_ { // what a record's backward pass needs besi
   X(char,   rec,   A->rec_size * A->rec_cap)        /* the segment's substep records         */ \
   X(char,   jac,   A->jac_size)                     /* dual work (ostJacWork's block)        */ \
   X(double, lam,   A->nrow_max)                     /* multipliers matched onto the rows     */ \
-  X(double, G,     (size_t)(A->ny_max + 2 * A->s.nv) * A->ncol_max) /* step Jacobian          */ \
+  X(double, G,     (size_t)(A->ny_max + 2 * A->s.nv + A->s.na) * A->ncol_max) /* Jacobian     */ \
   X(double, K,     (size_t)A->ny_max * A->ny_max)   /* its y block, LU-factored              */ \
   X(int,    piv,   A->ny_max)                       /* pivots                                */ \
   X(double, w,     A->ny_max)                       /* K' w = -O_y' g                        */ \
-  X(double, gxi,   A->ncol_max)                     /* cotangent of (dq-, u-, ctrl)          */ \
-  X(double, g,     2 * A->s.nv)                     /* running cotangent of (q, u)           */ \
+  X(double, gxi,   A->ncol_max)                     /* cotangent of (dq-, u-, act-, ctrl)    */ \
+  X(double, g,     2 * A->s.nv + A->s.na)           /* running cotangent of (q, u, act)      */ \
   X(int,    info,  4)                               /* records, step, failed, ny             */
 
 #define OST_ADJ_NREC   0          // info[]: records of the current segment
@@ -179,7 +184,7 @@ typedef struct ostAdjointLayout_ {  // where each array of an adjoint lane sits
   int    seg;                     // steps per segment (the checkpoint interval)
   int    rec_cap;                 // records a segment may hold
   int    ny_max;                  // nv + nrow_max
-  int    ncol_max;                // ny_max + 2 nv + nu
+  int    ncol_max;                // ny_max + 2 nv + na + nu
   int    nlane;                   // lanes
   int    njac;                    // threads sharing a record's columns (phase 3b)
   int    nckpt;                   // checkpoints a lane keeps: nseg, or 0 if the rollout kept them
@@ -207,7 +212,7 @@ typedef struct ostAdjointLane_ {  // one lane's arrays
 OST_HD void ostu_adjointLayout(ostAdjointLayout* A, int nlane) {
   A->nlane = nlane;
   A->ny_max = A->s.nv + A->nrow_max;
-  A->ncol_max = A->ny_max + 2 * A->s.nv + A->s.nu;
+  A->ncol_max = A->ny_max + 2 * A->s.nv + A->s.na + A->s.nu;
   A->rec_size = ostu_stepRecSize(A->s, A->nrow_max);
   size_t off = 0;
 #define X(type, name, n)                 \
@@ -243,7 +248,7 @@ OST_HD void ostu_recordStep(ostdStep* st, ostStepRec* r, const ostAdjointLayout*
   ostu_recordAt(r, A, al, j);
   ostdStep s = {NULL, r->qpos_prev, r->qvel_prev, r->qvel, r->ctrl, NULL, NULL, r->rows,
                 r->lambda, *r->nrow, as->truncate, *r->h, as->lookahead, as->reg, as->creep,
-                as->fb_eps, 0, NULL, NULL, NULL};
+                as->fb_eps, 0, NULL, NULL, NULL, r->act_prev};
   *st = s;
 }
 

@@ -20,6 +20,7 @@
 
 #include <math.h>
 
+#include "ost_activation.h"
 #include "ost_adjoint.h"
 #include "ost_dual.h"
 #include "ost_rows_native.h"
@@ -29,15 +30,18 @@ typedef struct ostJacWork_ {      // the dual evaluation's state: pointers into 
   ostKin    k;                    // dual kinematics
   ostWorld  w;                    // dual world: rows, J, Mt, f at the step
   ostNum *qpos, *qplus, *qref, *dqm, *dqp, *u, *uprev, *ctrl, *qfrc, *xfrc, *lambda, *R;
+  ostNum *act, *act_next, *input; // act- (na), act+ (na), actuator inputs (nu): ost_activation.h
   ostRow*   rec;                  // the recorded rows as dual rows (matching keys)
   ostNum*   rec_lambda;           // their multipliers
   unsigned char* used;            // matching scratch
   int       nrow_max;
 } ostJacWork;
 
-// dual vectors of the work: 3 nq + 6 nv + nu + 6 nbody + 2 nrow_max + nv + nrow_max
+// dual vectors of the work: 3 nq + 6 nv + nu + 6 nbody + 2 nrow_max + nv + nrow_max, then
+// 2 na + nu for the activations
 OST_HD size_t ostx_jacVectors(ostSizes s, int nrow_max) {
-  return 3 * (size_t)s.nq + 7 * (size_t)s.nv + s.nu + 6 * (size_t)s.nbody + 3 * (size_t)nrow_max;
+  return 3 * (size_t)s.nq + 7 * (size_t)s.nv + s.nu + 6 * (size_t)s.nbody + 3 * (size_t)nrow_max
+         + 2 * (size_t)s.na + s.nu;
 }
 
 
@@ -77,7 +81,10 @@ OST_HD void ostx_jacWorkInit(ostJacWork* wk, void* block, ostModel* m, int nrow_
   wk->xfrc = v;   v += 6 * s.nbody;
   wk->lambda = v; v += nrow_max;
   wk->R = v;      v += s.nv + nrow_max;
-  wk->rec_lambda = v;
+  wk->rec_lambda = v; v += nrow_max;
+  wk->act = v;    v += s.na;
+  wk->act_next = v; v += s.na;
+  wk->input = v;
 }
 
 
@@ -127,8 +134,9 @@ OST_HD void ostx_seedParam(ostModel* m, const ostdStep* st, int p, int k) {
 OST_HD int ostx_jacEvaluate(ostJacWork* wk, const ostdStep* st, int col0, int ny,
                             int nrow_expect, const double* lam) {
   ostModel* m = wk->m;
-  int nq = m->s.nq, nv = m->s.nv, nu = m->s.nu;
+  int nq = m->s.nq, nv = m->s.nv, nu = m->s.nu, na = m->s.na;
   for (int i = 0; i < nq; i++) wk->qpos[i] = st->qpos_prev[i];
+  for (int i = 0; i < na; i++) wk->act[i] = st->act_prev[i];
   for (int i = 0; i < nv; i++) {
     wk->dqm[i] = 0;
     wk->u[i] = st->qvel[i];
@@ -155,19 +163,23 @@ OST_HD int ostx_jacEvaluate(ostJacWork* wk, const ostdStep* st, int col0, int ny
       wk->dqm[c].d[k] = 1;
     } else if ((c -= nv) < nv) {
       wk->uprev[c].d[k] = 1;
-    } else if ((c -= nv) < nu) {
+    } else if ((c -= nv) < na) {
+      wk->act[c].d[k] = 1;
+    } else if ((c -= na) < nu) {
       wk->ctrl[c].d[k] = 1;
     } else if ((c -= nu) < st->nparam) {
       ostx_seedParam(m, st, c, k);
     }
   }
 
-  // q- (+) dq-, the step's start (Mt, f), then q+ = q- (+) h u and the rows there
+  // the actuators' inputs with act+ (eq. 8b), q- (+) dq-, the step's start (Mt, f), then
+  // q+ = q- (+) h u and the rows there
+  osti_actuation(m, wk->ctrl, wk->act, st->h, wk->act_next, wk->input);
   osti_integratePos(m, wk->qpos, wk->dqm, 1);
-  osti_nativeStart(m, &wk->k, &wk->w, wk->qpos, wk->uprev, wk->ctrl, wk->qfrc, wk->xfrc, st->h);
+  osti_nativeStart(m, &wk->k, &wk->w, wk->qpos, wk->uprev, wk->input, wk->qfrc, wk->xfrc, st->h);
   for (int i = 0; i < nq; i++) wk->qplus[i] = wk->qpos[i];
   osti_integratePos(m, wk->qplus, wk->u, st->h);
-  int rc = osti_nativeIterate(m, &wk->k, &wk->w, wk->qplus, wk->ctrl, st->lookahead, st->h);
+  int rc = osti_nativeIterate(m, &wk->k, &wk->w, wk->qplus, wk->input, st->lookahead, st->h);
   if (rc) {
     return rc;
   }
@@ -221,7 +233,7 @@ OST_HD int ostx_jacStructure(ostJacWork* wk, const ostdStep* st, double* lam, in
 // Returns 0, or 2 if the rows differ from the structure pass's.
 OST_HD int ostx_jacColumns(ostJacWork* wk, const ostdStep* st, const double* lam, int ny,
                            int c0, int cstep, double* G, int ncol, double* r2) {
-  int nv = wk->m->s.nv;
+  int nv = wk->m->s.nv, na = wk->m->s.na;
   for (int col0 = c0; col0 < ncol; col0 += cstep) {
     if (ostx_jacEvaluate(wk, st, col0, ny, ny - nv, lam)) {
       return 2;
@@ -233,6 +245,7 @@ OST_HD int ostx_jacColumns(ostJacWork* wk, const ostdStep* st, const double* lam
         G[(size_t)(ny + i) * ncol + c] = wk->dqp[i].d[k];
         G[(size_t)(ny + nv + i) * ncol + c] = wk->u[i].d[k];
       }
+      for (int i = 0; i < na; i++) G[(size_t)(ny + 2 * nv + i) * ncol + c] = wk->act_next[i].d[k];
     }
     if (col0 == 0 && r2) {
       *r2 = 0;
@@ -244,19 +257,19 @@ OST_HD int ostx_jacColumns(ostJacWork* wk, const ostdStep* st, const double* lam
 
 
 // Exact Jacobian of the step's residual and outputs: the structure pass, then every column
-// chunk; n = nv + the count of the rows at q+. G ((n + 2 nv) x ncol, row-major, ncol = n + 2 nv
-// + nu + nparam) receives the rows R (n) then O = (dq+, u+) (2 nv), differentiated by the
-// columns y = (u, lambda) (n) then xi = (dq-, u-, ctrl, theta). *resid gets |R| at the
-// solution. Returns 0, 1 if G needs more than G_cap doubles (*n still set), 2 if the rows
-// overflow or differ between evaluations.
+// chunk; n = nv + the count of the rows at q+. G ((n + 2 nv + na) x ncol, row-major, ncol = n +
+// 2 nv + na + nu + nparam) receives the rows R (n) then O = (dq+, u+, act+) (2 nv + na),
+// differentiated by the columns y = (u, lambda) (n) then xi = (dq-, u-, act-, ctrl, theta).
+// *resid gets |R| at the solution. Returns 0, 1 if G needs more than G_cap doubles (*n still
+// set), 2 if the rows overflow or differ between evaluations.
 OST_HD int ostx_stepJacobian(ostJacWork* wk, const ostdStep* st, double* G, size_t G_cap,
                              int* n_out, double* resid) {
-  int nv = wk->m->s.nv, nu = wk->m->s.nu, ny;
+  int nx = 2 * wk->m->s.nv + wk->m->s.na, nu = wk->m->s.nu, ny;
   if (ostx_jacStructure(wk, st, NULL, &ny)) {
     return 2;
   }
   *n_out = ny;
-  int nout = ny + 2 * nv, ncol = ny + 2 * nv + nu + st->nparam;
+  int nout = ny + nx, ncol = ny + nx + nu + st->nparam;
   if ((size_t)nout * ncol > G_cap) {
     return 1;
   }
@@ -321,7 +334,7 @@ OST_HD void ostx_recordColumns(ostModel* m, const ostAdjointLayout* A, char* lan
   ostu_recordStep(&st, &r, A, &al, j, as);
   ostJacWork jw;
   ostx_jacWorkInit(&jw, work ? work : al.jac, m, A->nrow_max);
-  int ncol = ny + 2 * A->s.nv + A->s.nu;
+  int ncol = ny + 2 * A->s.nv + A->s.na + A->s.nu;
   if (ostx_jacColumns(&jw, &st, al.lam, ny, t * OSTX_CHUNK, A->njac * OSTX_CHUNK, al.G, ncol,
                       NULL)) {
     al.info[OST_ADJ_FAILED] = OST_STEP_OVERFLOW;

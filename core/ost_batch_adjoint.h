@@ -55,7 +55,7 @@ OST_HD void osti_adjointForward(const ostModel* m, const ostBatchLayout* L,
   al.info[OST_ADJ_NREC] = 0;
   al.info[OST_ADJ_STEP] = T;
   al.info[OST_ADJ_FAILED] = 0;
-  for (int j = 0; j < 2 * A->s.nv; j++) al.g[j] = 0;
+  for (int j = 0; j < 2 * A->s.nv + A->s.na; j++) al.g[j] = 0;
   osti_adjointInject(A, &al, i, L->nworld, T, gq, gu);
 }
 
@@ -107,20 +107,20 @@ OST_HD void osti_recordSolve(const ostAdjointLayout* A, char* lanes, int l, int 
                              int j, double* gctrl) {
   ostAdjointLane al;
   ostu_adjointLane(&al, A, lanes, l);
-  int ny = al.info[OST_ADJ_NY], nv = A->s.nv, nu = A->s.nu;
+  int ny = al.info[OST_ADJ_NY], nx = 2 * A->s.nv + A->s.na, nu = A->s.nu;
   if (ny == 0 || al.info[OST_ADJ_FAILED]) {
     return;
   }
   ostStepRec r;
   ostu_recordAt(&r, A, &al, j);
-  int ncol = ny + 2 * nv + nu;
-  if (osti_adjointSolve(al.G, ny, nv, ncol, al.K, al.piv, al.w, al.g, al.g + nv, al.gxi)) {
+  int ncol = ny + nx + nu;
+  if (osti_adjointSolve(al.G, ny, nx, ncol, al.K, al.piv, al.w, al.g, al.gxi)) {
     al.info[OST_ADJ_FAILED] = OST_STEP_NAN;  // singular Jacobian
     return;
   }
-  for (int k = 0; k < 2 * nv; k++) al.g[k] = al.gxi[k];
+  for (int k = 0; k < nx; k++) al.g[k] = al.gxi[k];
   for (int a = 0; gctrl && a < nu; a++) {
-    gctrl[((size_t)*r.step * nworld + i) * nu + a] += al.gxi[2 * nv + a];
+    gctrl[((size_t)*r.step * nworld + i) * nu + a] += al.gxi[nx + a];
   }
 }
 

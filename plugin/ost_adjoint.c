@@ -2,12 +2,12 @@
 // section 2; paper section III-D; mirrors engine_derivative.c). Each committed substep is
 // recorded at commit (ost_recordSubstep: state, controls and the converged forces, nothing of
 // the Newton or PCR iterates). Its backward pass takes the exact Jacobian of the step's
-// residual R(y; xi) = 0, y = (u+, lambda), xi = (dq-, u-, ctrl, theta), and outputs
-// O = (dq+, u+) from ost_adjoint_dual.cc and solves
+// residual R(y; xi) = 0, y = (u+, lambda), xi = (dq-, u-, act-, ctrl, theta), and outputs
+// O = (dq+, u+, act+) from ost_adjoint_dual.cc and solves
 //   K' w = -O_y' g,     dL/dxi = O_xi' g + R_xi' w,     K = dR/dy,
-// where g = (dL/dq+, dL/du+). K is not symmetric once the position pull-back, friction's
-// dependence on the normal force and the exponential map enter, so it is factored by LU
-// (its size is nv + rows, tens to a few hundred).
+// where g = (dL/dq+, dL/du+, dL/dact+). act+ is explicit in (act-, ctrl) (eq. 8b). K is not
+// symmetric once the position pull-back, friction's dependence on the normal force and the
+// exponential map enter, so it is factored by LU (its size is nv + rows, tens to a few hundred).
 // Invariant: the forward state of a context (warm start, options) is never changed here.
 #include <math.h>
 #include <stdlib.h>
@@ -41,11 +41,11 @@ void ost_defaultGradOptions(ostGradOptions* go) {
 
 //---------------------------------- Records -------------------------------------------------------
 
-// bytes of one record: a header, then q- (nq), u- (nv), u+ (nv), ctrl (nu), qfrc_applied (nv),
-// xfrc_applied (6 nbody), lambda (nrow) and rows (nrow) of the rows the substep used;
-// independent of the budgets and of the row capacity
+// bytes of one record: a header, then q- (nq), u- (nv), u+ (nv), ctrl (nu), act- (na),
+// qfrc_applied (nv), xfrc_applied (6 nbody), lambda (nrow) and rows (nrow) of the rows the
+// substep used; independent of the budgets and of the row capacity
 size_t ost_recordSize(const mjModel* m, int nrow) {
-  size_t nnum = m->nq + 3 * (size_t)m->nv + m->nu + 6 * (size_t)m->nbody + nrow;
+  size_t nnum = m->nq + 3 * (size_t)m->nv + m->nu + m->na + 6 * (size_t)m->nbody + nrow;
   return sizeof(ostRecordHead) + nnum * sizeof(mjtNum) + nrow * sizeof(ostRow);
 }
 
@@ -58,6 +58,7 @@ size_t ost_recordView(const mjModel* m, void* rec, ostRecord* r) {
   r->qvel_prev = p;     p += m->nv;
   r->qvel = p;          p += m->nv;
   r->ctrl = p;          p += m->nu;
+  r->act_prev = p;      p += m->na;
   r->qfrc_applied = p;  p += m->nv;
   r->xfrc_applied = p;  p += 6 * m->nbody;
   r->lambda = p;        p += nrow_max;
@@ -94,6 +95,7 @@ int ost_recordSubstep(ostContext* c, const mjModel* m, const mjData* d, mjtNum h
   memcpy(r.qvel_prev, w->qvel_prev, m->nv * sizeof(mjtNum));
   memcpy(r.qvel, w->qvel, m->nv * sizeof(mjtNum));
   memcpy(r.ctrl, d->ctrl, m->nu * sizeof(mjtNum));
+  memcpy(r.act_prev, d->act, m->na * sizeof(mjtNum));  // act-: committed after the record
   memcpy(r.qfrc_applied, d->qfrc_applied, m->nv * sizeof(mjtNum));
   memcpy(r.xfrc_applied, d->xfrc_applied, 6 * m->nbody * sizeof(mjtNum));
   memcpy(r.lambda, w->lambda, w->nrow * sizeof(mjtNum));
@@ -171,7 +173,7 @@ static int adjointScratch(ostContext* c, size_t n) {
 // G[0:ny, 0:ny] is copied after G and LU-factored there (pivots after K)
 static int recordJacobian(ostContext* c, const mjModel* m, const ostRecord* r, int truncate,
                           int params, int factor, int* ny, int** piv) {
-  int nv = m->nv, nparam = params ? ost_nparam(m) : 0, status;
+  int nv = m->nv, nx = 2 * nv + m->na, nparam = params ? ost_nparam(m) : 0, status;
   int adr[OST_NPARAM + 1];
   for (int g = 0; g <= OST_NPARAM; g++) {
     adr[g] = ost_paramAddress(m, g);
@@ -179,8 +181,7 @@ static int recordJacobian(ostContext* c, const mjModel* m, const ostRecord* r, i
   ostdStep s = {&c->native, r->qpos_prev, r->qvel_prev, r->qvel, r->ctrl, r->qfrc_applied,
                 r->xfrc_applied, r->rows, r->lambda, r->head->nrow, truncate, r->head->h,
                 c->opt.margin, c->opt.regularization, c->opt.friction_creep, c->opt.fb_eps, nparam,
-                adr,
-                c->adj_fric_geom, c->adj_fric_weight};
+                adr, c->adj_fric_geom, c->adj_fric_weight, r->act_prev};
   double resid;
   for (;;) {
     size_t cap = c->adj_scratch_cap > (size_t)nv ? c->adj_scratch_cap : 0;
@@ -191,14 +192,14 @@ static int recordJacobian(ostContext* c, const mjModel* m, const ostRecord* r, i
     if (rc == 2) {
       return ost_fail(c, OST_ERR_OVERFLOW, "row capacity exceeded re-evaluating a step's rows");
     }
-    size_t ncol = *ny + 2 * nv + m->nu + nparam;
-    if ((status = adjointScratch(c, 2 * (size_t)(*ny + 2 * nv) * ncol + 4 * ncol))) {
+    size_t ncol = *ny + nx + m->nu + nparam;
+    if ((status = adjointScratch(c, 2 * (size_t)(*ny + nx) * ncol + 4 * ncol))) {
       return status;
     }
   }
-  size_t ncol = *ny + 2 * nv + m->nu + nparam;
+  size_t ncol = *ny + nx + m->nu + nparam;
   mjtNum* G = c->adj_scratch;
-  mjtNum* K = G + (size_t)(*ny + 2 * nv) * ncol;
+  mjtNum* K = G + (size_t)(*ny + nx) * ncol;
   *piv = (int*)(K + (size_t)*ny * *ny);  // ny ints in the room of ny doubles
   if (!factor) {
     return OST_OK;
@@ -213,28 +214,26 @@ static int recordJacobian(ostContext* c, const mjModel* m, const ostRecord* r, i
 }
 
 
-// backward pass of one record: g = (gq, gu) at its q+, u+ in; gq, gu at its q-, u- out (in
-// place, nv each); gctrl (nu) and gtheta accumulate
+// backward pass of one record: g = (gq, gu, ga) at its q+, u+, act+ in; at its q-, u-, act- out
+// (in place, 2 nv + na); gctrl (nu) and gtheta accumulate
 static int recordBackward(ostContext* c, const mjModel* m, const ostRecord* r,
-                          const ostGradOptions* go, mjtNum* gq, mjtNum* gu, mjtNum* gctrl,
-                          mjtNum* gtheta) {
-  int nv = m->nv, nu = m->nu, ny, *piv, status;
+                          const ostGradOptions* go, mjtNum* g, mjtNum* gctrl, mjtNum* gtheta) {
+  int nv = m->nv, nx = 2 * nv + m->na, nu = m->nu, ny, *piv, status;
   int nparam = go->params && gtheta ? ost_nparam(m) : 0;
   if ((status = recordJacobian(c, m, r, go->truncate, nparam > 0, 0, &ny, &piv))) {
     return status;
   }
-  int ncol = ny + 2 * nv + nu + nparam;
+  int ncol = ny + nx + nu + nparam;
   const mjtNum* G = c->adj_scratch;
-  mjtNum* K = c->adj_scratch + (size_t)(ny + 2 * nv) * ncol;
+  mjtNum* K = c->adj_scratch + (size_t)(ny + nx) * ncol;
   mjtNum* w = K + (size_t)ny * ny + ny;
   mjtNum* gxi = w + ny;
-  if (osti_adjointSolve(G, ny, nv, ncol, K, piv, w, gq, gu, gxi)) {
+  if (osti_adjointSolve(G, ny, nx, ncol, K, piv, w, g, gxi)) {
     return ost_fail(c, OST_ERR_NUMERIC, "the step's Jacobian is singular");
   }
-  memcpy(gq, gxi, nv * sizeof(mjtNum));
-  memcpy(gu, gxi + nv, nv * sizeof(mjtNum));
+  memcpy(g, gxi, nx * sizeof(mjtNum));
   for (int i = 0; gctrl && i < nu; i++) {
-    gctrl[i] += gxi[2 * nv + i];
+    gctrl[i] += gxi[nx + i];
   }
   // MuJoCo reads biasprm only for an affine bias (a motor's is unused): no derivative there
   int bias1 = ost_paramAddress(m, OST_PARAM_BIASPOS), bias2 = ost_paramAddress(m, OST_PARAM_BIASVEL);
@@ -243,7 +242,7 @@ static int recordBackward(ostContext* c, const mjModel* m, const ostRecord* r,
     if (i >= bias1 && act < nu && m->actuator_biastype[act] != mjBIAS_AFFINE) {
       continue;
     }
-    gtheta[i] += gxi[2 * nv + nu + i];
+    gtheta[i] += gxi[nx + nu + i];
   }
   return OST_OK;
 }
@@ -272,15 +271,11 @@ static int recordsSolved(ostContext* c, const mjModel* m, void* recs, size_t nby
 
 
 // backward pass over records [0, n) of a block (one step's substeps, or a tape's segment):
-// gq, gu (nv) hold the cotangents at the end on entry and at the start on return
+// g = (gq, gu, ga) (2 nv + na) holds the cotangents at the end on entry and at the start on
+// return
 int ost_recordsBackward(ostContext* c, const mjModel* m, void* recs, size_t nbytes,
-                        const ostGradOptions* go, mjtNum* gq, mjtNum* gu, mjtNum* gctrl,
-                        mjtNum* gtheta) {
+                        const ostGradOptions* go, mjtNum* g, mjtNum* gctrl, mjtNum* gtheta) {
   int status = recordsSolved(c, m, recs, nbytes);
-  if (!status && m->na > 0) {
-    status = ost_fail(c, OST_ERR_MODEL, "gradients of models with activation dynamics (na = "
-                      "%d) are not supported yet", m->na);
-  }
   if (!status) {
     status = adjointPrepare(c, m);
   }
@@ -300,7 +295,7 @@ int ost_recordsBackward(ostContext* c, const mjModel* m, void* recs, size_t nbyt
   for (int k = n - 1; k >= 0 && !status; k--) {
     ostRecord r;
     ost_recordView(m, (char*)recs + offs[k], &r);
-    status = recordBackward(c, m, &r, go, gq, gu, gctrl, gtheta);
+    status = recordBackward(c, m, &r, go, g, gctrl, gtheta);
   }
   free(offs);
   return status;
@@ -323,8 +318,9 @@ int ost_adjoint(const mjModel* m, const mjData* d, const ostGradOptions* go, con
     ost_defaultGradOptions(&def);
     go = &def;
   }
+  // the activations' cotangent at the end is zero: L depends on (q+, u+)
   int nv = m->nv;
-  mjtNum* g = (mjtNum*)calloc(2 * nv + 1, sizeof(mjtNum));
+  mjtNum* g = (mjtNum*)calloc(2 * nv + m->na + 1, sizeof(mjtNum));
   if (!g) {
     return ost_fail(c, OST_ERR_MEMORY, "cannot allocate");
   }
@@ -335,8 +331,7 @@ int ost_adjoint(const mjModel* m, const mjData* d, const ostGradOptions* go, con
   if (gctrl) {
     memset(gctrl, 0, m->nu * sizeof(mjtNum));
   }
-  int status = ost_recordsBackward(c, m, c->rec_buf, c->rec_bytes, go, g, g + nv, gctrl,
-                                   gtheta);
+  int status = ost_recordsBackward(c, m, c->rec_buf, c->rec_bytes, go, g, gctrl, gtheta);
   if (!status) {
     if (gq_prev) memcpy(gq_prev, g, nv * sizeof(mjtNum));
     if (gu_prev) memcpy(gu_prev, g + nv, nv * sizeof(mjtNum));
@@ -346,11 +341,12 @@ int ost_adjoint(const mjModel* m, const mjData* d, const ostGradOptions* go, con
 }
 
 
-// dense Jacobians of the records [0, n): x+ = (dq+, u+) by x- = (dq-, u-) into A (2nv x 2nv)
-// and by ctrl into B (2nv x nu), chaining substeps: A = A_n..A_1, B = sum A_n..A_{k+1} B_k
+// dense Jacobians of the records [0, n): x+ = (dq+, u+, act+) by x- = (dq-, u-, act-) into A
+// (nx x nx, nx = 2nv + na) and by ctrl into B (nx x nu), chaining substeps: A = A_n..A_1,
+// B = sum A_n..A_{k+1} B_k
 static int recordsTransition(ostContext* c, const mjModel* m, void* recs, size_t nbytes,
                              mjtNum* A, mjtNum* B) {
-  int nv = m->nv, nu = m->nu, nx = 2 * nv, status;
+  int nv = m->nv, nu = m->nu, nx = 2 * nv + m->na, status;
   if ((status = recordsSolved(c, m, recs, nbytes)) || (status = adjointPrepare(c, m))) {
     return status;
   }
@@ -422,12 +418,8 @@ int ost_transition(const mjModel* m, mjData* d, mjtNum* A, mjtNum* B) {
   if (!c) {
     return OST_ERR_MEMORY;
   }
-  if (m->na > 0) {
-    return ost_fail(c, OST_ERR_MODEL, "ost_transition: models with activations (na = %d) are "
-                    "not supported", m->na);
-  }
   // step from a copy of the state, differentiate the recorded substeps, restore everything
-  int nstate = 1 + m->nq + 2 * m->nv;
+  int nstate = 1 + m->nq + 2 * m->nv + m->na;
   mjtNum* save = (mjtNum*)malloc((nstate + m->nu) * sizeof(mjtNum));
   if (!save) {
     return ost_fail(c, OST_ERR_MEMORY, "cannot allocate");
@@ -436,6 +428,7 @@ int ost_transition(const mjModel* m, mjData* d, mjtNum* A, mjtNum* B) {
   memcpy(save + 1, d->qpos, m->nq * sizeof(mjtNum));
   memcpy(save + 1 + m->nq, d->qvel, m->nv * sizeof(mjtNum));
   memcpy(save + 1 + m->nq + m->nv, d->qacc_warmstart, m->nv * sizeof(mjtNum));
+  memcpy(save + 1 + m->nq + 2 * m->nv, d->act, m->na * sizeof(mjtNum));
   memcpy(save + nstate, d->ctrl, m->nu * sizeof(mjtNum));
   int status = ost_step(m, d);
   if (!status || OST_IS_WARNING(status)) {
@@ -445,6 +438,7 @@ int ost_transition(const mjModel* m, mjData* d, mjtNum* A, mjtNum* B) {
   memcpy(d->qpos, save + 1, m->nq * sizeof(mjtNum));
   memcpy(d->qvel, save + 1 + m->nq, m->nv * sizeof(mjtNum));
   memcpy(d->qacc_warmstart, save + 1 + m->nq + m->nv, m->nv * sizeof(mjtNum));
+  memcpy(d->act, save + 1 + m->nq + 2 * m->nv, m->na * sizeof(mjtNum));
   memcpy(d->ctrl, save + nstate, m->nu * sizeof(mjtNum));
   mj_forward(m, d);
   c->warm_valid = 0;

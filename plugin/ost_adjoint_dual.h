@@ -26,9 +26,10 @@ void ostd_workFree(void* work);
 
 // Exact Jacobian of the step's residual and outputs by forward-mode dual numbers. The native
 // rows at q+ are recomputed and the recorded multipliers matched onto them (by object and
-// contact key); n = nv + their count. G ((n + 2 nv) x ncol, row-major, ncol = n + 2 nv + nu +
-// nparam) receives the rows R (n) then O = (dq+, u+) (2 nv), differentiated by the columns
-// y = (u, lambda) (n) then xi = (dq-, u-, ctrl, theta). *resid gets |R| at the solution.
+// contact key); n = nv + their count. G ((n + 2 nv + na) x ncol, row-major, ncol = n + 2 nv +
+// na + nu + nparam) receives the rows R (n) then O = (dq+, u+, act+) (2 nv + na), differentiated
+// by the columns y = (u, lambda) (n) then xi = (dq-, u-, act-, ctrl, theta). *resid gets |R| at
+// the solution.
 // Returns 0, 1 if G needs more than G_cap doubles (*n still set), 2 if the rows overflow.
 int ostd_stepJacobian(void* work, const ostdStep* s, double* G, size_t G_cap, int* n,
                       double* resid);

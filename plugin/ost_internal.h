@@ -38,6 +38,7 @@ typedef struct ostRecord_ {       // pointers into one record block (ost_recordV
   mjtNum* qvel_prev;              // u-                                            (nv)
   mjtNum* qvel;                   // u+                                            (nv)
   mjtNum* ctrl;                   // controls                                      (nu)
+  mjtNum* act_prev;               // activations at the start                      (na)
   mjtNum* qfrc_applied;           // applied forces                                (nv)
   mjtNum* xfrc_applied;           // applied wrenches                       (nbody x 6)
   mjtNum* lambda;                 // multipliers of the solution             (nrow_max)
@@ -232,11 +233,10 @@ size_t ost_recordView(const mjModel* m, void* rec, ostRecord* r);
 int ost_recordSubstep(ostContext* c, const mjModel* m, const mjData* d, mjtNum h,
                       mjtNum residual, int bits);
 
-// backward pass over the records in the nbytes at recs: (gq, gu) at their end in, at their
-// start out; gctrl (nu) and gtheta accumulate (either may be NULL)
+// backward pass over the records in the nbytes at recs: g = (gq, gu, ga) (2 nv + na) at their
+// end in, at their start out; gctrl (nu) and gtheta accumulate (either may be NULL)
 int ost_recordsBackward(ostContext* c, const mjModel* m, void* recs, size_t nbytes,
-                        const ostGradOptions* go, mjtNum* gq, mjtNum* gu, mjtNum* gctrl,
-                        mjtNum* gtheta);
+                        const ostGradOptions* go, mjtNum* g, mjtNum* gctrl, mjtNum* gtheta);
 
 // the adjoint's resources of a context (called when the context is freed)
 void ost_adjointFree(ostContext* c);

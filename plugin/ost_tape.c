@@ -24,7 +24,8 @@ struct ostTape_ {
   mjtNum* inputs;                 // per step: ctrl, qfrc_applied, xfrc_applied (checkpoints)
   int     ninput;                 // numbers per step in inputs
   int     input_cap;              // capacity of inputs in steps
-  void*   ckpt;                   // per segment: state and warm start (checkpoints)
+  void*   ckpt;                   // per segment: state (time, qpos, qvel, qacc_warmstart, act)
+                                  // and warm start (checkpoints)
   size_t  ckpt_sz;                // bytes per checkpoint
   int     ncon_cap;               // largest contact capacity of the recorded steps' context
   int     ckpt_cap;               // capacity of ckpt
@@ -53,7 +54,7 @@ ostTape* ost_tapeCreate(const mjModel* m, int checkpoint) {
     ost_tapeDelete(t);
     return NULL;
   }
-  t->ckpt_sz = (1 + m->nq + 2 * (size_t)m->nv) * sizeof(mjtNum) + ost_warmSize(c);
+  t->ckpt_sz = (1 + m->nq + 2 * (size_t)m->nv + m->na) * sizeof(mjtNum) + ost_warmSize(c);
   return t;
 }
 
@@ -179,7 +180,8 @@ static void saveCheckpoint(ostTape* t, const mjData* d, const ostContext* c, int
   memcpy(s + 1, d->qpos, m->nq * sizeof(mjtNum));
   memcpy(s + 1 + m->nq, d->qvel, m->nv * sizeof(mjtNum));
   memcpy(s + 1 + m->nq + m->nv, d->qacc_warmstart, m->nv * sizeof(mjtNum));
-  ost_warmSave(c, s + 1 + m->nq + 2 * m->nv);
+  memcpy(s + 1 + m->nq + 2 * m->nv, d->act, m->na * sizeof(mjtNum));
+  ost_warmSave(c, s + 1 + m->nq + 2 * m->nv + m->na);
 }
 
 
@@ -203,7 +205,7 @@ int ost_tapeStep(ostTape* t, const mjModel* m, mjData* d) {
     return tapeFail(t, OST_ERR_MEMORY, "cannot grow the tape");
   }
   if (S && k % S == 0) {
-    size_t need = (1 + m->nq + 2 * (size_t)m->nv) * sizeof(mjtNum) + ost_warmSize(c);
+    size_t need = (1 + m->nq + 2 * (size_t)m->nv + m->na) * sizeof(mjtNum) + ost_warmSize(c);
     if (widenCheckpoints(t, need) || grow(&t->ckpt, &t->ckpt_cap, k / S + 1, t->ckpt_sz)) {
       return tapeFail(t, OST_ERR_MEMORY, "cannot grow the tape");
     }
@@ -251,7 +253,8 @@ static int recomputeSegment(ostTape* t, int k0, int k1) {
   memcpy(d->qpos, s + 1, m->nq * sizeof(mjtNum));
   memcpy(d->qvel, s + 1 + m->nq, m->nv * sizeof(mjtNum));
   memcpy(d->qacc_warmstart, s + 1 + m->nq + m->nv, m->nv * sizeof(mjtNum));
-  if (ost_warmLoad(c, s + 1 + m->nq + 2 * m->nv)) {
+  memcpy(d->act, s + 1 + m->nq + 2 * m->nv, m->na * sizeof(mjtNum));
+  if (ost_warmLoad(c, s + 1 + m->nq + 2 * m->nv + m->na)) {
     return tapeFail(t, OST_ERR_MEMORY, ost_lastError(d));
   }
   t->rec_bytes = 0;
@@ -299,7 +302,8 @@ int ost_tapeBackward(ostTape* t, const mjModel* m, const ostGradOptions* go, con
              "gradient; raise ostrich/newton_iter or lower h", t->bad_step, t->bad_err);
     return tapeFail(t, OST_ERR_NOT_CONVERGED, msg);
   }
-  mjtNum* g = (mjtNum*)calloc(2 * nv + 1, sizeof(mjtNum));
+  // running cotangent of (q, u, act): the activations carry the controls' effect to later steps
+  mjtNum* g = (mjtNum*)calloc(2 * nv + m->na + 1, sizeof(mjtNum));
   if (!g) {
     return tapeFail(t, OST_ERR_MEMORY, "cannot allocate");
   }
@@ -323,7 +327,7 @@ int ost_tapeBackward(ostTape* t, const mjModel* m, const ostGradOptions* go, con
       g[nv + i] += gu ? gu[(size_t)(k + 1) * nv + i] : 0;
     }
     size_t r0 = t->step_rec[k - base], r1 = t->step_rec[k - base + 1];
-    status = ost_recordsBackward(c, m, (char*)t->recs + r0, r1 - r0, go, g, g + nv,
+    status = ost_recordsBackward(c, m, (char*)t->recs + r0, r1 - r0, go, g,
                                  gctrl ? gctrl + (size_t)k * nu : NULL, gtheta);
     if (status) {
       char msg[512];

@@ -323,14 +323,15 @@ OSTAPI void ost_defaultGradOptions(ostGradOptions* go);
 // (nv, tangent) and gu = dL/du+ (nv), return dL/dq- (nv, tangent), dL/du- (nv), dL/dctrl (nu)
 // and, if go->params and gtheta != NULL, dL/dtheta (ost_nparam, accumulated: += ). Outputs may
 // be NULL. The step must have been taken by ost_step / ost_step2 on (m, d), and d's state not
-// changed since.
+// changed since. With activations (na > 0) L is a function of (q+, u+) and the controls'
+// gradient includes their path through act+; dL/dact- is a row of ost_transition's A.
 OSTAPI int ost_adjoint(const mjModel* m, const mjData* d, const ostGradOptions* go,
                        const mjtNum* gq, const mjtNum* gu, mjtNum* gq_prev, mjtNum* gu_prev,
                        mjtNum* gctrl, mjtNum* gtheta);
 
 // Dense transition Jacobians of one Ostrich step from d's state, in mjd_transitionFD's layout:
-// A = d x+/d x (2nv x 2nv), B = d x+/d ctrl (2nv x nu), x = (qpos tangent, qvel); either may be
-// NULL. d is left as it was (state, controls, time). Models with activations (na > 0) are refused.
+// A = d x+/d x ((2nv + na) x (2nv + na)), B = d x+/d ctrl ((2nv + na) x nu), x = (qpos tangent,
+// qvel, act); either may be NULL. d is left as it was (state, activations, controls, time).
 OSTAPI int ost_transition(const mjModel* m, mjData* d, mjtNum* A, mjtNum* B);
 
 // A tape records a rollout for its backward pass: per step only the state, controls and the
@@ -363,7 +364,8 @@ OSTAPI size_t ost_tapeBytes(const ostTape* t);
 // loss with respect to the state after each step, row 0 the start state (NULL = zero). Returns
 // gctrl (n x nu), the gradient of the start state gq0, gu0 (nv each, row 0 of gq, gu included)
 // and, with go->params, gtheta (accumulated). Outputs may be NULL. The error message of a
-// failure is in ost_tapeError.
+// failure is in ost_tapeError. With activations (na > 0) the loss is a function of (q, u); the
+// controls' gradient includes their path through the activations (carried between steps).
 OSTAPI int ost_tapeBackward(ostTape* t, const mjModel* m, const ostGradOptions* go,
                             const mjtNum* gq, const mjtNum* gu, mjtNum* gctrl, mjtNum* gq0,
                             mjtNum* gu0, mjtNum* gtheta);

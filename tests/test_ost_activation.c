@@ -190,6 +190,176 @@ START_TEST(test_muscleRefused) {
 END_TEST
 
 
+// a double pendulum under gravity (nonlinear in q) with three actuators: a motor without
+// dynamics on the shoulder, a position servo behind a filter (tau = 50 ms) on the elbow and an
+// integrator motor on the shoulder with actrange [-1, 1]; na = 2, the activations inside their
+// range (the clamp is a kink)
+static mjModel* pendulum(void) {
+  return ost_fixtureLoadString(
+      "<mujoco><option gravity='0 0 -9.81'/><worldbody><body name='upper'>"
+      "<joint name='shoulder' type='hinge' axis='0 1 0'/>"
+      "<geom type='capsule' fromto='0 0 0 0.4 0 0' size='0.03' mass='1' contype='0' "
+      "conaffinity='0'/><body name='lower' pos='0.4 0 0'>"
+      "<joint name='elbow' type='hinge' axis='0 1 0'/>"
+      "<geom type='capsule' fromto='0 0 0 0.4 0 0' size='0.03' mass='1' contype='0' "
+      "conaffinity='0'/></body></body></worldbody><actuator>"
+      "<motor name='m' joint='shoulder' gear='1'/>"
+      "<general name='servo' joint='elbow' dyntype='filter' dynprm='0.05' gainprm='20' "
+      "biastype='affine' biasprm='0 -20 -2'/>"
+      "<general name='int' joint='shoulder' dyntype='integrator' gainprm='3' actlimited='true' "
+      "actrange='-1 1'/></actuator></mujoco>");
+}
+
+
+// d's state: qpos, qvel, act and ctrl from the arrays (nv, nv, na, nu), then mj_forward
+static void setState(const mjModel* m, mjData* d, const double* q, const double* v,
+                     const double* a, const double* u) {
+  for (int i = 0; i < m->nq; i++) d->qpos[i] = q[i];
+  for (int i = 0; i < m->nv; i++) d->qvel[i] = v[i];
+  for (int i = 0; i < m->na; i++) d->act[i] = a[i];
+  for (int i = 0; i < m->nu; i++) d->ctrl[i] = u[i];
+  d->time = 0;
+  mj_forward(m, d);
+}
+
+
+// ost_transition's A (nx x nx, nx = 2 nv + na) and B (nx x nu) against central differences of
+// ost_step, each column perturbed by +-eps (qpos along the tangent, mjd_transitionFD's layout)
+START_TEST(test_transitionGradients) {
+  ost_fixtureSetup();
+  mjModel* m = pendulum();
+  int nv = m->nv, na = m->na, nu = m->nu, nx = 2 * nv + na;
+  ck_assert_int_eq(na, 2);
+  mjData* d = mj_makeData(m);
+  setProvider(m, d, 0.01, 1);
+  double q0[2] = {0.4, -0.7}, v0[2] = {0.3, -0.5}, a0[2] = {0.2, -0.3}, u0[3] = {0.5, 0.8, 0.4};
+  double A[64], B[64], x[2][8], worst_a = 0, worst_b = 0, scale = 0;
+  setState(m, d, q0, v0, a0, u0);
+  for (int i = 0; i < nx * nx; i++) A[i] = NAN;  // poisoned: every entry must be written
+  for (int i = 0; i < nx * nu; i++) B[i] = NAN;
+  ck_assert_int_eq(ost_transition(m, d, A, B), OST_OK);
+  ck_assert(d->act[0] == a0[0] && d->act[1] == a0[1]);  // the state is left as it was
+  ck_assert(d->qpos[0] == q0[0] && d->qvel[1] == v0[1]);
+  const double eps = 1e-6;
+  double qref[2];
+  for (int j = 0; j < nx + nu; j++) {
+    for (int side = 0; side < 2; side++) {
+      double e = side ? -eps : eps, q[2] = {q0[0], q0[1]}, v[2] = {v0[0], v0[1]};
+      double a[2] = {a0[0], a0[1]}, u[3] = {u0[0], u0[1], u0[2]};
+      if (j < nv) {
+        q[j] += e;  // hinges: the tangent is the coordinate
+      } else if (j < 2 * nv) {
+        v[j - nv] += e;
+      } else if (j < nx) {
+        a[j - 2 * nv] += e;
+      } else {
+        u[j - nx] += e;
+      }
+      setState(m, d, q, v, a, u);
+      ck_assert_int_eq(ost_step(m, d), OST_OK);
+      if (side == 0) {
+        qref[0] = d->qpos[0];
+        qref[1] = d->qpos[1];
+      }
+      mj_differentiatePos(m, x[side], 1, qref, d->qpos);
+      for (int i = 0; i < nv; i++) x[side][nv + i] = d->qvel[i];
+      for (int i = 0; i < na; i++) x[side][2 * nv + i] = d->act[i];
+    }
+    for (int i = 0; i < nx; i++) {
+      double fd = (x[0][i] - x[1][i]) / (2 * eps);
+      double an = j < nx ? A[i * nx + j] : B[i * nu + j - nx];
+      scale = fmax(scale, fabs(an));
+      if (j < nx) {
+        worst_a = fmax(worst_a, fabs(an - fd));
+      } else {
+        worst_b = fmax(worst_b, fabs(an - fd));
+      }
+    }
+  }
+  printf("transition (nx = %d): max |A - FD| %.2g, max |B - FD| %.2g, max |entry| %.3g\n", nx,
+         worst_a, worst_b, scale);
+  // the activation rows are exact: d act+ / d act- = tau / (tau + h) for the filter, 1 for the
+  // integrator; d act+ / d ctrl = h / (tau + h) and h (rounding of one division: 1e-15)
+  ck_assert_double_eq_tol(A[(2 * nv) * nx + 2 * nv], 0.05 / 0.06, 1e-15);
+  ck_assert_double_eq_tol(A[(2 * nv + 1) * nx + 2 * nv + 1], 1, 1e-15);
+  ck_assert_double_eq_tol(B[(2 * nv) * nu + 1], 0.01 / 0.06, 1e-15);
+  ck_assert_double_eq_tol(B[(2 * nv + 1) * nu + 2], 0.01, 1e-15);
+  // central differences: truncation eps^2 |x'''| ~ 1e-12 and rounding 1e-16 / eps ~ 1e-10 (the
+  // pendulum has no contact: Newton solves its step to rounding); 1e-7 of the largest entry
+  ck_assert_double_le(worst_a, 1e-7 * fmax(1, scale));
+  ck_assert_double_le(worst_b, 1e-7 * fmax(1, scale));
+  ost_deleteData(d);
+  mj_deleteModel(m);
+}
+END_TEST
+
+
+// L = sum over the rollout's T states of qpos[1] + 0.1 qvel[0], from start (q, v, act)
+static double rolloutLoss(const mjModel* m, mjData* d, const double* start, const double* ctrl,
+                          int T, ostTape* tape) {
+  setState(m, d, start, start + m->nv, start + 2 * m->nv, ctrl);
+  if (tape) {
+    ost_tapeClear(tape);
+  }
+  double L = 0;
+  for (int k = 0; k < T; k++) {
+    for (int a = 0; a < m->nu; a++) d->ctrl[a] = ctrl[k * m->nu + a];
+    ck_assert_int_eq(tape ? ost_tapeStep(tape, m, d) : ost_step(m, d), OST_OK);
+    L += d->qpos[1] + 0.1 * d->qvel[0];
+  }
+  return L;
+}
+
+
+// a tape's control gradient of a 20-step rollout (loss on qpos and qvel; the activations carry
+// each control to the later steps) against central differences of the whole rollout, without
+// and with checkpoints (a segment recomputed from a checkpoint must restore act)
+START_TEST(test_tapeControlGradient) {
+  ost_fixtureSetup();
+  mjModel* m = pendulum();
+  int nv = m->nv, nu = m->nu, T = 20;
+  mjData* d = mj_makeData(m);
+  setProvider(m, d, 0.01, 1);
+  double start[6] = {0.4, -0.7, 0.3, -0.5, 0.2, -0.3};
+  double ctrl[60], gctrl[60], gq[42] = {0}, gu[42] = {0};
+  for (int k = 0; k < T; k++) {
+    for (int a = 0; a < nu; a++) ctrl[k * nu + a] = 0.3 * sin(0.7 * k + a);
+  }
+  for (int k = 1; k <= T; k++) {
+    gq[k * nv + 1] = 1;    // dL/dqpos[1] at every step's end
+    gu[k * nv + 0] = 0.1;  // dL/dqvel[0]
+  }
+  for (int S = 0; S <= 5; S += 5) {
+    ostTape* tape = ost_tapeCreate(m, S);
+    rolloutLoss(m, d, start, ctrl, T, tape);
+    for (int i = 0; i < T * nu; i++) gctrl[i] = NAN;
+    ck_assert_int_eq(ost_tapeBackward(tape, m, NULL, gq, gu, gctrl, NULL, NULL, NULL), OST_OK);
+    double worst = 0, scale = 0;
+    for (int i = 0; i < T * nu; i++) {
+      const double eps = 1e-6;
+      double c0 = ctrl[i];
+      ctrl[i] = c0 + eps;
+      double lp = rolloutLoss(m, d, start, ctrl, T, NULL);
+      ctrl[i] = c0 - eps;
+      double lm = rolloutLoss(m, d, start, ctrl, T, NULL);
+      ctrl[i] = c0;
+      double fd = (lp - lm) / (2 * eps);
+      worst = fmax(worst, fabs(gctrl[i] - fd));
+      scale = fmax(scale, fabs(fd));
+    }
+    printf("tape (checkpoint %d): max |dL/dctrl - FD| %.2g (relative %.2g), max %.3g\n", S,
+           worst, worst / scale, scale);
+    // central differences of a smooth 20-step rollout: the per-step errors above, summed over
+    // 20 steps and 20 terms of L: 1e-6 of the largest entry
+    ck_assert_double_le(worst, 1e-6 * scale);
+    ost_tapeDelete(tape);
+  }
+  ost_deleteData(d);
+  mj_deleteModel(m);
+}
+END_TEST
+
+
 static Suite* suite(void) {
   Suite* s = suite_create("ost_activation");
   TCase* tc = tcase_create("activation");
@@ -199,6 +369,8 @@ static Suite* suite(void) {
   tcase_add_test(tc, test_integratorClamps);
   tcase_add_test(tc, test_filterServoLargeStep);
   tcase_add_test(tc, test_muscleRefused);
+  tcase_add_test(tc, test_transitionGradients);
+  tcase_add_test(tc, test_tapeControlGradient);
   suite_add_tcase(s, tc);
   return s;
 }

@@ -67,7 +67,7 @@ static const cliOption kSimOptions[] = {
    "and collision, or Ostrich's portable native geometry"},
   CLI_KEY_OPTION(simArgs),
   {"--csv", CLI_ARG_STRING, offsetof(simArgs, csv), "FILE.csv",
-   "write the trajectory as CSV: header time,qpos_0..,qvel_0..; one row\n"
+   "write the trajectory as CSV: header time,qpos_0..,qvel_0..(,act_0.. if na > 0); one row\n"
    "for the initial state, then one after each step (%.10g); written to\n"
    "FILE.csv.tmp<pid>, renamed at the end (a killed run leaves FILE whole)"},
 };
@@ -197,6 +197,9 @@ static void sim_writeHeader(const simRun* r) {
   for (int i = 0; i < r->m->nv; i++) {
     fprintf(r->csv, ",qvel_%d", i);
   }
+  for (int i = 0; i < r->m->na; i++) {
+    fprintf(r->csv, ",act_%d", i);
+  }
   fputc('\n', r->csv);
 }
 
@@ -209,6 +212,9 @@ static void sim_writeRow(const simRun* r) {
   }
   for (int i = 0; i < r->m->nv; i++) {
     fprintf(r->csv, ",%.10g", r->d->qvel[i]);
+  }
+  for (int i = 0; i < r->m->na; i++) {
+    fprintf(r->csv, ",%.10g", r->d->act[i]);
   }
   fputc('\n', r->csv);
 }

@@ -69,6 +69,14 @@ OSTPY_API int ostpy_rollout(ostpyPhysics* p, ostpyTape* t, int nstep, const mjtN
   if (nstep < 0) {
     return ostpy_fail(t->err, -3, "the number of steps is negative");
   }
+  if (m->na > 0) {
+    // the rollout's trajectory and start-state gradients are (qpos, qvel): act would be dropped
+    char msg[256];
+    snprintf(msg, sizeof(msg), "rollouts of models with activation dynamics (na = %d) are not "
+             "supported: their trajectory and gradients carry qpos and qvel only; step them with "
+             "Physics.step", m->na);
+    return ostpy_fail(t->err, OST_ERR_MODEL, msg);
+  }
   if (t->cap < nstep + 1) {
     mjtNum* grown = (mjtNum*)realloc(t->qpos, sizeof(mjtNum) * (size_t)(nstep + 1) * nq);
     if (!grown) {
