@@ -385,8 +385,8 @@ START_TEST(test_checkpointGrownCapacity) {
   rollout* r = newRollout("../tests/models/many_contacts.xml", 0.01, 6, 0, 3);
   const mjModel* m = r->m;
   int nv = m->nv;
-  for (int j = 0; j < nv; j++) r->qvel0[j] = j % 3 == 2 ? 0 : 0.5 * ((j % 7) - 3) / 3.0;
   mjtNum *q0 = calloc(nv, 8), *q1 = calloc(nv, 8), *u0 = calloc(nv, 8), *u1 = calloc(nv, 8);
+  for (int j = 0; j < nv; j++) r->qvel0[j] = j % 3 == 2 ? 0 : 0.5 * ((j % 7) - 3) / 3.0;
   ostGradOptions go;
   ost_defaultGradOptions(&go);
   adjointGrad(r, &go, 0, q0, u0, NULL, NULL);
