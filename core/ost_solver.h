@@ -56,6 +56,10 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNu
 
 // restart length of GMRES, the Krylov solver of Newton systems with sliding friction (below)
 #define OST_KRYLOV 32
+// islands of at most this many rows solve their Schur system directly (osti_directSet): the
+// dense Schur matrix from the rows' half-solves and an LU factor, instead of PCR or GMRES
+#define OST_DIRECT_MAX 96
+#define OST_NDENSE(nrow_max) ((nrow_max) < OST_DIRECT_MAX ? (nrow_max) : OST_DIRECT_MAX)
 
 // One world's arrays. The X-macro is the single description of the layout: it drives the size
 // of the allocation and the pointer setup (type, name, rows, cols). Arrays only the Newton
@@ -96,6 +100,9 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNu
   X(ostNum, pcr, OST_SOLVER_ROWS(nrow_max), 6) /* PCR vectors b r z p Az Ap */                     \
   X(ostNum, krylov, OST_SOLVER_ROWS(nrow_max), OST_KRYLOV + 1) /* GMRES basis */                   \
   X(ostNum, hess, OST_SOLVER_ROWS(OST_KRYLOV + 1), OST_KRYLOV + 4) /* Hessenberg, rotations */     \
+  X(ostNum, Ad, OST_SOLVER_ROWS(OST_NDENSE(nrow_max)), OST_NDENSE(nrow_max)) /* dense Schur, LU */ \
+  X(ostNum, Yh, OST_SOLVER_ROWS(OST_NDENSE(nrow_max)), ncol) /* rows' half-solves L^-T J_i' */   \
+  X(int, Apiv, OST_SOLVER_ROWS(OST_NDENSE(nrow_max)), 1) /* the LU's pivots                   */   \
   X(ostRow, rows_relax, OST_SOLVER_ROWS(nrow_max), 1) /* violations kept this step (relax) */     \
   X(int, Jnnz, OST_SOLVER_ROWS(nrow_max), 1) /* columns in row i's pattern (osti_rowStore)  */   \
   X(int, Jind, OST_SOLVER_ROWS(nrow_max), ncol) /* their indices, ascending                  */   \
@@ -1040,6 +1047,101 @@ OST_HD ostRowSet osti_islandSet(const ostWorld* w, int I) {
 }
 
 
+#ifndef OST_NUM_TYPE  // the forward solver runs in doubles (the LU takes double)
+// A x = b on a set of at most OST_DIRECT_MAX rows (x, b local), directly: A = J Mt^-1 J' +
+// (c / h) plus the sliding couplings of osti_newtonApplySet, assembled from the rows'
+// half-solves y_i = D^-1/2 L^-T J_i' (within their parent-closed patterns, as osti_rowDiag) as
+// A_lm = sum_c y_l[c] y_m[c] over the columns two patterns share, each row scaled by its
+// Jacobi preconditioner (the fixed rows' c ~ 1e12 k_f would dwarf the others), then an LU factor
+// with partial pivoting. Needs row patterns and the tree factor. Returns 1 (one "iteration"),
+// or 0 if the factor failed (the caller falls back to the iterative solve).
+OST_HD int osti_directSet(ostWorld* w, const ostRowSet* set, ostNum* x, const ostNum* b) {
+  int n = set->n, nv = w->nv, ncol = w->ncol;
+  const int* parent = w->dof_parent;
+  ostNum* y = w->tmp + nv;  // dense scratch on a pattern
+  for (int l = 0; l < n; l++) {
+    int i = OST_SET_ROW(set, l), cnt = w->Jnnz[i];
+    const ostNum* v = w->J + (size_t)i * ncol;
+    const int* ind = w->Jind + (size_t)i * ncol;
+    for (int k = 0; k < cnt; k++) {
+      y[ind[k]] = v[k];
+    }
+    ostNum* Y = w->Yh + (size_t)l * ncol;
+    for (int k = cnt - 1; k >= 0; k--) {
+      int c = ind[k];
+      ostNum yc = y[c];
+      for (int j = parent[c]; j >= 0; j = parent[j]) {
+        y[j] -= w->M[(size_t)c * nv + j] * yc;
+      }
+      Y[k] = yc / sqrt(w->M[(size_t)c * nv + c]);  // D^-1/2 y: A_lm = Y_l . Y_m
+    }
+  }
+  ostNum* A = w->Ad;
+  for (int l = 0; l < n; l++) {
+    int i = OST_SET_ROW(set, l);
+    const int* il = w->Jind + (size_t)i * ncol;
+    const ostNum* Yl = w->Yh + (size_t)l * ncol;
+    for (int m = l; m < n; m++) {
+      int j = OST_SET_ROW(set, m);
+      const int* jm = w->Jind + (size_t)j * ncol;
+      const ostNum* Ym = w->Yh + (size_t)m * ncol;
+      ostNum s = 0;
+      for (int a = 0, e = 0; a < w->Jnnz[i] && e < w->Jnnz[j];) {
+        if (il[a] < jm[e]) {
+          a++;
+        } else if (il[a] > jm[e]) {
+          e++;
+        } else {
+          s += Yl[a] * Ym[e];
+          a++;
+          e++;
+        }
+      }
+      A[(size_t)l * n + m] = A[(size_t)m * n + l] = s;
+    }
+    A[(size_t)l * n + l] += w->c[i] / w->h;
+  }
+  for (int l = 0; l + 1 < n; l++) {
+    int i = OST_SET_ROW(set, l);
+    if (osti_slidingCoupled(w, i)) {
+      A[(size_t)(l + 1) * n + l] -= w->c[i + 1] / w->h * w->rows[i].mu;
+    }
+  }
+  for (int l = 0; l < n; l++) {
+    int i = OST_SET_ROW(set, l);
+    ostNum p = 1 / (w->diag[i] + w->c[i] / w->h);
+    for (int m = 0; m < n; m++) {
+      A[(size_t)l * n + m] *= p;
+    }
+    x[l] = p * b[l];
+  }
+  if (ostu_luFactor(A, w->Apiv, n)) {
+    return 0;
+  }
+  ostu_luSolve(x, A, w->Apiv, x, n);
+  return 1;
+}
+#endif
+
+
+// A x = b on a set: directly when it is small enough (osti_directSet), else by GMRES where a
+// sliding coupling makes A non-symmetric and by PCR otherwise; returns the iterations used
+OST_HD int osti_schurSolveSet(ostWorld* w, const ostRowSet* set, ostNum* x, const ostNum* b,
+                              const ostSolverOptions* opt) {
+#ifndef OST_NUM_TYPE
+  if (w->Ad && w->dof_parent && set->n <= OST_NDENSE(w->nrow_max)) {
+    int it = osti_directSet(w, set, x, b);
+    if (it) {
+      return it;
+    }
+  }
+#endif
+  return osti_hasSlidingCouplingSet(w, set)
+             ? osti_gmresSet(w, set, x, b, opt->pcr_iter, opt->pcr_tol)
+             : osti_pcrSet(w, set, x, b, opt->pcr_iter, opt->pcr_tol);
+}
+
+
 // the Newton direction at the evaluated iterate: each island's Schur system by PCR (by GMRES
 // when sliding friction makes it non-symmetric), islands marked done (isl_done) get none; then
 // du by back-substitution, zero on done islands; dlambda is rotated back from slip frames to
@@ -1059,9 +1161,7 @@ OST_HD int osti_newtonDirection(ostWorld* w, const ostSolverOptions* opt) {
   }
   if (w->nisland == 0) {
     ostRowSet set = osti_wholeSet(w);
-    it = osti_hasSlidingCouplingSet(w, &set)
-             ? osti_gmresSet(w, &set, dlam, b, opt->pcr_iter, opt->pcr_tol)
-             : osti_pcrSet(w, &set, dlam, b, opt->pcr_iter, opt->pcr_tol);
+    it = osti_schurSolveSet(w, &set, dlam, b, opt);
   } else {
     ostNum* bl = w->xloc;                  // an island's right-hand side and solution, local
     ostNum* xl = w->xloc + w->nrow_max;
@@ -1072,9 +1172,7 @@ OST_HD int osti_newtonDirection(ostWorld* w, const ostSolverOptions* opt) {
         continue;
       }
       for (int l = 0; l < set.n; l++) bl[l] = b[set.row[l]];
-      it += osti_hasSlidingCouplingSet(w, &set)
-                ? osti_gmresSet(w, &set, xl, bl, opt->pcr_iter, opt->pcr_tol)
-                : osti_pcrSet(w, &set, xl, bl, opt->pcr_iter, opt->pcr_tol);
+      it += osti_schurSolveSet(w, &set, xl, bl, opt);
       for (int l = 0; l < set.n; l++) dlam[set.row[l]] = xl[l];
     }
   }

@@ -1,9 +1,10 @@
 // test_ost_solver.c: the per-world Newton step on hand-made problems with closed-form answers:
-// PCR solves the Schur system exactly, GMRES the non-symmetric one of sliding friction, a point
-// mass lands on a hard floor, a velocity servo.
+// PCR solves the Schur system exactly, GMRES the non-symmetric one of sliding friction, the direct
+// solve of an island equals GMRES, a point mass lands on a hard floor, a velocity servo.
 #include "ost_solver.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 
 #include "fixture.h"
@@ -185,6 +186,70 @@ START_TEST(test_gmresSliding) {
 }
 END_TEST
 
+// the direct solve of an island (osti_directSet: the Schur matrix from the rows' half-solves on
+// their patterns, an LU factor) equals GMRES on the matrix-free operator, sliding couplings
+// included: the system of test_gmresSliding on a tree-factored mass matrix
+START_TEST(test_directMatchesGmres) {
+  enum { nv = 40, ncon = 15, n = 3 * ncon };
+  ostWorld w;
+  void* buf = makeWorld(&w, nv, n, 0.1);
+  double h = 0.1;
+  unsigned seed = 11;
+  static int parent[nv];
+  for (int j = 0; j < nv; j++) parent[j] = j % 4 == 0 ? -1 : j - 1;  // chains of four dofs
+  for (int i = 0; i < nv * nv; i++) w.M[i] = 0;
+  for (int j = 0; j < nv; j++) {
+    w.M[j * nv + j] = 1 + j;
+    if (parent[j] >= 0) w.M[j * nv + parent[j]] = 0.3;
+  }
+  w.dof_parent = parent;
+  ck_assert_int_eq(osti_factorMass(&w), 0);
+  w.nrow = n;
+  static double Jd[n * nv];
+  for (int i = 0; i < n * nv; i++) {
+    seed = seed * 1103515245u + 12345u;
+    // each contact touches two of the chains, as a contact touches its two bodies' chains
+    int k = i / nv / 3, j = i % nv;
+    Jd[i] = (j / 4 == k % 10 || j / 4 == (3 * k + 1) % 10) ? (double)(seed >> 8) / (1 << 24) - 0.5
+                                                           : 0;
+  }
+  setRows(&w, Jd, n);
+  for (int k = 0; k < ncon; k++) {
+    int i = 3 * k, sliding = k % 3 == 0;
+    w.rows[i] = (ostRow){0};
+    w.rows[i].type = OST_ROW_CONTACT;
+    w.rows[i].normal = -1;
+    w.rows[i].mu = 0.8;
+    for (int f = 1; f <= 2; f++) {
+      w.rows[i + f] = (ostRow){0};
+      w.rows[i + f].type = OST_ROW_FRICTION;
+      w.rows[i + f].normal = i;
+    }
+    w.lambda[i] = 10;
+    w.W[i] = sliding;
+    for (int r = 0; r < 3; r++) {
+      osti_rowDiag(&w, i + r);
+      w.c[i + r] = 0.5 * h * w.diag[i + r];
+    }
+    if (sliding) w.c[i + 1] = 1e12 * h * w.diag[i + 1];
+  }
+  double b[n], x[n], xd[n];
+  for (int i = 0; i < n; i++) b[i] = sin(1.0 + i) * (w.c[i] > 1 ? 1e12 : 1);
+  osti_gmres(&w, x, b, 400, 1e-14);
+  ostRowSet set = osti_wholeSet(&w);
+  ck_assert_int_eq(osti_directSet(&w, &set, xd, b), 1);
+  double err = 0, scale = 0;
+  for (int i = 0; i < n; i++) {
+    err = fmax(err, fabs(x[i] - xd[i]));
+    scale = fmax(scale, fabs(xd[i]));
+  }
+  printf("direct vs GMRES: max |difference| %.3g of %.3g\n", err, scale);
+  // GMRES runs to a relative residual of 1e-14; 1e-9 leaves room for the conditioning
+  ck_assert_double_lt(err / scale, 1e-9);
+  free(buf);
+}
+END_TEST
+
 int main(void) {
   Suite* s = suite_create("ost_solver");
   TCase* tc = tcase_create("solver");
@@ -192,6 +257,7 @@ int main(void) {
   tcase_add_test(tc, test_velocityServo);
   tcase_add_test(tc, test_pcr);
   tcase_add_test(tc, test_gmresSliding);
+  tcase_add_test(tc, test_directMatchesGmres);
   suite_add_tcase(s, tc);
   return ost_fixtureRun(s);
 }
