@@ -248,6 +248,30 @@ OST_HD int osti_nativeIterate(const ostModel* m, ostKin* k, ostWorld* w, const o
 }
 
 
+// the springs of hinge and slide joints taken implicitly (backward Euler in q): with
+// q+ = q- + h u+, M (u+ - u-) = h (f(q-, u-) - h k u+) becomes
+//   (M + h D + h^2 K) (u+ - u-) = h (f(q-, u-) - h K u-),
+// so Mt gets h^2 k on the joint's dof and f gets -h k u- (f already holds the spring force at
+// q-). A stiff spring then stays stable at any h (MuJoCo's Euler keeps springs explicit).
+// Ball and free joints' springs stay explicit.
+OST_HD void osti_implicitSprings(const ostModel* m, ostWorld* w, const ostNum* qvel, ostNum h) {
+  if (m->disableflags & OST_DSBL_PASSIVE) {
+    return;
+  }
+  int nv = m->s.nv;
+  for (int j = 0; j < m->s.njnt; j++) {
+    int t = m->jnt_type[j];
+    ostNum k = m->jnt_stiffness[j];
+    if ((t != OST_JNT_HINGE && t != OST_JNT_SLIDE) || !(k > 0)) {
+      continue;
+    }
+    int d = m->jnt_dofadr[j];
+    w->M[(size_t)d * nv + d] += h * h * k;
+    w->qfrc_explicit[d] -= h * k * qvel[d];
+  }
+}
+
+
 // the start of a step at (q-, u-): Mt = M(q-) + h D into w->M (unfactored) and the explicit
 // forces f = qfrc_passive - qfrc_bias + explicit actuator forces + qfrc_applied (+ J' xfrc)
 // into w->qfrc_explicit (core/README.md section 1). qfrc_applied and xfrc_applied may be NULL.
@@ -281,6 +305,7 @@ OST_HD void osti_nativeStart(const ostModel* m, ostKin* k, ostWorld* w, const os
     w->qfrc_explicit[j] = k->qfrc_passive[j] - k->qfrc_bias[j]
                           + (qfrc_applied ? qfrc_applied[j] : 0);
   }
+  osti_implicitSprings(m, w, qvel, h);
 
   // explicit actuators: force = g ctrl + b0 + b1 L + b2 V clamped to forcerange, times moment
   if (!(m->disableflags & OST_DSBL_ACTUATION)) {

@@ -496,6 +496,19 @@ static void mujocoStart(ostContext* c, const mjModel* m, mjData* d, mjtNum h, in
     w->M[(size_t)i * nv + i] += h * m->dof_damping[i];
   }
   w->dof_parent = m->dof_parentid;
+
+  // hinge and slide springs implicitly, as osti_implicitSprings (core/ost_rows_native.h)
+  if (!(m->opt.disableflags & mjDSBL_PASSIVE)) {
+    for (int j = 0; j < m->njnt; j++) {
+      int t = m->jnt_type[j];
+      mjtNum k = m->jnt_stiffness[j];
+      if ((t == mjJNT_HINGE || t == mjJNT_SLIDE) && k > 0) {
+        int a = m->jnt_dofadr[j];
+        w->M[(size_t)a * nv + a] += h * h * k;
+        w->qfrc_explicit[a] -= h * k * d->qvel[a];
+      }
+    }
+  }
 }
 
 

@@ -1,6 +1,7 @@
 // test_ost_physics.c: physical behaviour of ost_step on small scenes with known answers:
 // resting contact, timestep-consistent Coulomb friction on an incline, implicit servos at any
-// gain, a 1:1000 stack, and contact-free motion against stock MuJoCo.
+// gain, implicit stiff joint springs, a 1:1000 stack, and contact-free motion against stock
+// MuJoCo.
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -318,6 +319,44 @@ START_TEST(test_pendulumClosedForm) {
 END_TEST
 
 
+// a stiff hinge spring (k / I = 1e4, so omega h = 10 at h = 0.1 s, where an explicit spring
+// diverges) follows the backward Euler recurrence I (u+ - u-) = -h k (q- + h u+ - q0) exactly,
+// with both geometry providers: the spring is implicit
+START_TEST(test_stiffSpringImplicit) {
+  ost_fixtureSetup();
+  mjModel* m = ost_fixtureLoadString(
+      "<mujoco><option gravity='0 0 0'/><worldbody><body><joint type='hinge' axis='0 0 1'"
+      " stiffness='100' springref='0'/><geom type='box' size='0.05 0.05 0.05' pos='0.1 0 0'"
+      " mass='1' contype='0' conaffinity='0'/></body></worldbody></mujoco>");
+  mjData* d = mj_makeData(m);
+  mj_forward(m, d);
+  double I = d->qM[0], k = 100, h = 0.1;
+  for (int geometry = 0; geometry < 2; geometry++) {
+    ostOptions o;
+    ck_assert_int_eq(ost_readOptions(m, &o, NULL, 0), OST_OK);
+    o.timestep = h;
+    o.geometry = geometry;
+    ck_assert_int_eq(ost_setOptions(m, d, &o), OST_OK);
+    mj_resetData(m, d);
+    d->qpos[0] = 0.5;
+    double q = 0.5, u = 0;
+    for (int s = 0; s < 100; s++) {
+      ck_assert_int_eq(ost_step(m, d), OST_OK);
+      u = (I * u - h * k * q) / (I + h * h * k);
+      q += h * u;
+      // the same recurrence: rounding and the solver's tol (1e-10) only
+      ck_assert_double_eq_tol(d->qvel[0], u, 1e-9);
+      ck_assert_double_eq_tol(d->qpos[0], q, 1e-9);
+    }
+    printf("stiff spring k/I = %.3g, h = %g, geometry %d: q after 10 s %.3g (decays)\n", k / I, h,
+           geometry, d->qpos[0]);
+  }
+  ost_deleteData(d);
+  mj_deleteModel(m);
+}
+END_TEST
+
+
 // implicit position servo at h = 0.1 s: converges to the target and stays finite for any gain
 START_TEST(test_servoAnyGain) {
   ost_fixtureSetup();
@@ -431,6 +470,7 @@ int main(void) {
   tcase_add_test(tc, test_frictionCreep);
   tcase_add_test(tc, test_pendulumClosedForm);
   tcase_add_test(tc, test_servoAnyGain);
+  tcase_add_test(tc, test_stiffSpringImplicit);
   tcase_add_test(tc, test_heavyOnLight);
   tcase_add_test(tc, test_chainAgreesWithMujoco);
   suite_add_tcase(s, tc);
