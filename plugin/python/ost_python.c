@@ -188,8 +188,9 @@ OSTPY_API int ostpy_size(const ostpyPhysics* p, const char* name) {
 
 // Pointer, shape and element kind (ostpyKind) of the array `name` of mjData (data = 1) or
 // mjModel (data = 0), from mjxmacro.h's tables, and the name of its row count ("nbody", "nq",
-// ...: the objects its rows belong to); "time" is mjData's scalar time as a 1 x 1 array, and
-// "opt.timestep", "opt.gravity" the model's. Returns 0, or 1 if there is no such array.
+// ...: the objects its rows belong to); "time" is mjData's scalar time as a 1 x 1 array, "ncon"
+// its number of contacts (of MuJoCo's collision) as a 1 x 1 int array, and "opt.timestep",
+// "opt.gravity" the model's. Returns 0, or 1 if there is no such array.
 OSTPY_API int ostpy_array(ostpyPhysics* p, int data, const char* name, void** ptr, int* rows,
                           int* cols, int* kind, const char** rowdim) {
   const mjModel* m = p->m;
@@ -207,6 +208,10 @@ OSTPY_API int ostpy_array(ostpyPhysics* p, int data, const char* name, void** pt
     #undef X
     if (!strcmp(name, "time")) {
       *ptr = &d->time; *rows = 1; *cols = 1; *kind = OSTPY_MJTNUM; *rowdim = "";
+      return 0;
+    }
+    if (!strcmp(name, "ncon")) {
+      *ptr = &d->ncon; *rows = 1; *cols = 1; *kind = OSTPY_INT; *rowdim = "";
       return 0;
     }
   } else {
@@ -237,7 +242,7 @@ OSTPY_API int ostpy_array(ostpyPhysics* p, int data, const char* name, void** pt
 // Comma-separated names of every array that ostpy_array gives for mjData (data = 1) or mjModel.
 OSTPY_API const char* ostpy_arrayNames(int data) {
   #define X(type, n, nr, nc) #n ","
-  static const char* kData = MJDATA_POINTERS "time";
+  static const char* kData = MJDATA_POINTERS "time,ncon";
   static const char* kModel = MJMODEL_POINTERS "opt.timestep,opt.gravity";
   #undef X
   return data ? kData : kModel;

@@ -72,6 +72,8 @@ class _Struct:
   def __getattr__(self, name):
     if name == "time":
       return float(self._view("time")[0][0])
+    if name == "ncon" and self._is_data:  # contacts found by MuJoCo's collision (read only)
+      return int(self._view("ncon")[0][0])
     if name == "timestep":  # model.opt.timestep
       return float(self._view("opt.timestep")[0][0])
     if name == "gravity":
@@ -81,6 +83,8 @@ class _Struct:
   def __setattr__(self, name, value):
     if name == "time":
       self._view("time")[0][0] = value
+    elif name == "ncon" and self._is_data:
+      raise AttributeError("data.ncon is read only")
     elif name == "timestep":
       self._view("opt.timestep")[0][0] = value
     else:

@@ -150,3 +150,15 @@ def test_views_keep_their_memory_alive():
   gc.collect()
   np.testing.assert_array_equal(qpos, [0.25, -0.5])  # the C data is freed with its last view
   assert mass["pole"] == pytest.approx(0.1)
+
+
+def test_ncon_counts_mujocos_contacts():
+  physics = ostrich.Physics.from_xml_string(FREE_BALL.replace(
+      "<worldbody>", '<worldbody><geom name="floor" type="plane" size="5 5 0.1"/>'))
+  physics.forward()
+  assert physics.data.ncon == 0  # the ball (radius 0.1) 1 m above the floor
+  physics.named.data.qpos["free"] = [0, 0, 0.05, 1, 0, 0, 0]  # 5 cm into the floor
+  physics.forward()
+  assert physics.data.ncon == 1  # sphere-plane: one contact
+  with pytest.raises(AttributeError, match="read only"):
+    physics.data.ncon = 0
