@@ -4,6 +4,7 @@
 // explicit Euler:
 //   integrator  act_dot = ctrl                act+ = act- + h ctrl
 //   filter      act_dot = (ctrl - act) / tau  act+ = (tau act- + h ctrl) / (tau + h)
+//   muscle      mju_muscleDynamics             act+ solved exactly (ost_muscle.h, eq. 8c)
 // then clamped to actrange when actlimited (mj_advance clamps after its update). ctrl is the
 // control clamped to ctrlrange (mj_fwdActuation's local copy); tau = max(1e-15, dynprm[0]) as
 // MuJoCo (mjMINVAL). An actuator with activation dynamics applies gain act+ + bias: its force
@@ -16,6 +17,7 @@
 
 #include "ost_hd.h"
 #include "ost_model.h"
+#include "ost_muscle.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -25,7 +27,7 @@ typedef enum osttDyn_ {           // activation dynamics, numbered as mjtDyn
   OST_DYN_NONE = 0,               // no activation: the actuator applies ctrl
   OST_DYN_INTEGRATOR,             // act_dot = ctrl
   OST_DYN_FILTER,                 // act_dot = (ctrl - act) / tau
-  OST_DYN_MUSCLE,                 // MuJoCo's muscle activation (refused: plugin/ost_check.c)
+  OST_DYN_MUSCLE,                 // MuJoCo's muscle activation (ost_muscle.h)
   OST_DYN_USER                    // mjcb_act_dyn (refused)
 } osttDyn;
 
@@ -43,10 +45,12 @@ OST_HD ostNum osti_actClamp(ostNum c, int limited, const ostNum range[2]) {
 
 
 // act+ of one activation after a backward-Euler step of size h (eq. 8b): act- the activation
-// at the start, ctrl the clamped control, tau = dynprm[0] (filter only)
-OST_HD ostNum osti_actNext(int dyntype, ostNum tau, int actlimited, const ostNum actrange[2],
-                           ostNum act, ostNum ctrl, ostNum h) {
+// at the start, ctrl the clamped control, dynprm the actuator's first two dynprm (the filter's
+// tau; the muscle's tau_act, tau_deact)
+OST_HD ostNum osti_actNext(int dyntype, const ostNum* dynprm, int actlimited,
+                           const ostNum actrange[2], ostNum act, ostNum ctrl, ostNum h) {
   ostNum next = act;
+  ostNum tau = dynprm[0];
   if (dyntype == OST_DYN_INTEGRATOR) {
     // act+ = act- + h act_dot; act_dot = ctrl does not depend on act: explicit = implicit
     next = act + h * ctrl;
@@ -58,6 +62,9 @@ OST_HD ostNum osti_actNext(int dyntype, ostNum tau, int actlimited, const ostNum
       t = OST_ACT_MINTAU;
     }
     next = (t * act + h * ctrl) / (t + h);
+  } else if (dyntype == OST_DYN_MUSCLE) {
+    // act+ = act- + h act_dot(ctrl, act+), the time constant depending on both (eq. 8c)
+    next = osti_muscleActNext(dynprm, act, ctrl, h);
   }
   return osti_actClamp(next, actlimited, actrange);
 }
@@ -80,7 +87,7 @@ OST_HD void osti_actuation(const ostModel* m, const ostNum* ctrl, const ostNum* 
       continue;
     }
     act_next[j] = off ? act[j]
-                      : osti_actNext(m->actuator_dyntype[i], m->actuator_dynprm[i],
+                      : osti_actNext(m->actuator_dyntype[i], m->actuator_dynprm + 2 * i,
                                      m->actuator_actlimited[i], m->actuator_actrange + 2 * i,
                                      act[j], c, h);
     input[i] = act_next[j];

@@ -124,14 +124,20 @@ OST_STATIC_ASSERT(sizeof(ostSizes) % 8 == 0, "ostSizes: a multiple of 8 bytes");
   X(int,    actuator_forcelimited, s.nu,     1)  /* clamp force to forcerange            */    \
   X(ostNum, actuator_gear,    s.nu,          1)  /* gear[0]                              */    \
   X(ostNum, actuator_gainprm, s.nu,          1)  /* gain: force = g ctrl + b0 + b1 L + b2 V */ \
-  X(ostNum, actuator_biasprm, s.nu,          3)  /* b0, b1, b2                           */    \
+  X(ostNum, actuator_biasprm, s.nu,          3)  /* b0, b1, b2 (affine bias; else zero)  */    \
   X(ostNum, actuator_ctrlrange,  s.nu,       2)  /* control range                        */    \
   X(ostNum, actuator_forcerange, s.nu,       2)  /* force range                          */    \
   X(int,    actuator_dyntype, s.nu,          1)  /* osttDyn (ost_activation.h)           */    \
   X(int,    actuator_actadr,  s.nu,          1)  /* its activation in act (-1: none)     */    \
   X(int,    actuator_actlimited, s.nu,       1)  /* clamp act to actrange                */    \
-  X(ostNum, actuator_dynprm,  s.nu,          1)  /* dynprm[0]: the filter's tau (s)      */    \
-  X(ostNum, actuator_actrange, s.nu,         2)  /* activation range                     */
+  X(ostNum, actuator_dynprm,  s.nu,          2)  /* filter tau; muscle tau_act, tau_deact */   \
+  X(ostNum, actuator_actrange, s.nu,         2)  /* activation range                     */    \
+  X(int,    actuator_gaintype, s.nu,         1)  /* osttGain (ost_muscle.h)              */    \
+  X(int,    actuator_biastype, s.nu,         1)  /* osttBias (ost_muscle.h)              */    \
+  X(ostNum, actuator_gainmus, s.nu,          9)  /* muscle gainprm[0..8] (gain muscle)   */    \
+  X(ostNum, actuator_biasmus, s.nu,          9)  /* muscle biasprm[0..8] (bias muscle)   */    \
+  X(ostNum, actuator_lengthrange, s.nu,      2)  /* muscle length range                  */    \
+  X(ostNum, actuator_acc0,    s.nu,          1)  /* |M^-1 moment| at qpos0 (mj_setConst) */
 
 typedef struct ostModel_ {        // Ostrich's model: sizes, options and pointers into one block
   ostSizes s;                     // sizes

@@ -15,6 +15,7 @@
 #include "ost_collision.h"
 #include "ost_kinematics.h"
 #include "ost_model.h"
+#include "ost_muscle.h"
 #include "ost_solver.h"
 
 #ifdef __cplusplus
@@ -307,7 +308,9 @@ OST_HD void osti_nativeStart(const ostModel* m, ostKin* k, ostWorld* w, const os
   }
   osti_implicitSprings(m, w, qvel, h);
 
-  // explicit actuators: force = g ctrl + b0 + b1 L + b2 V clamped to forcerange, times moment
+  // explicit actuators: force = gain input + bias clamped to forcerange, times moment, with
+  // gain g or a muscle's -F FL FV, bias b0 + b1 L + b2 V or a muscle's -F FP (eq. 8c), all at
+  // (q-, u-); input the clamped ctrl or act+ (eq. 8b)
   if (!(m->disableflags & OST_DSBL_ACTUATION)) {
     for (int i = 0; i < m->s.nu; i++) {
       if (m->actuator_servo[i]) {
@@ -315,12 +318,18 @@ OST_HD void osti_nativeStart(const ostModel* m, ostKin* k, ostWorld* w, const os
       }
       const ostNum* mom = k->actuator_moment + (size_t)i * nv;
       const ostNum* b = m->actuator_biasprm + 3 * i;
-      ostNum V = 0;
+      ostNum L = k->actuator_length[i], V = 0;
       for (int j = 0; j < nv; j++) {
         V += mom[j] * qvel[j];
       }
-      ostNum f = m->actuator_gainprm[i] * osti_ctrl(m, ctrl, i) + b[0]
-                 + b[1] * k->actuator_length[i] + b[2] * V;
+      const ostNum* lr = m->actuator_lengthrange + 2 * i;
+      ostNum gain = m->actuator_gaintype[i] == OST_GAIN_MUSCLE
+                    ? osti_muscleGain(L, V, lr, m->actuator_acc0[i], m->actuator_gainmus + 9 * i)
+                    : m->actuator_gainprm[i];
+      ostNum bias = m->actuator_biastype[i] == OST_BIAS_MUSCLE
+                    ? osti_muscleBias(L, lr, m->actuator_acc0[i], m->actuator_biasmus + 9 * i)
+                    : b[0] + b[1] * L + b[2] * V;
+      ostNum f = gain * osti_ctrl(m, ctrl, i) + bias;
       if (m->actuator_forcelimited[i]) {
         const ostNum* r = m->actuator_forcerange + 2 * i;
         f = f < r[0] ? r[0] : (f > r[1] ? r[1] : f);

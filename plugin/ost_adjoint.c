@@ -235,11 +235,17 @@ static int recordBackward(ostContext* c, const mjModel* m, const ostRecord* r,
   for (int i = 0; gctrl && i < nu; i++) {
     gctrl[i] += gxi[nx + i];
   }
-  // MuJoCo reads biasprm only for an affine bias (a motor's is unused): no derivative there
+  // MuJoCo reads biasprm only for an affine bias (a motor's is unused) and gainprm[0] as a gain
+  // only when fixed: no derivative elsewhere (a muscle's are its curves' range, not
+  // differentiated: core/README.md section 1)
+  int gain0 = ost_paramAddress(m, OST_PARAM_GAIN);
   int bias1 = ost_paramAddress(m, OST_PARAM_BIASPOS), bias2 = ost_paramAddress(m, OST_PARAM_BIASVEL);
   for (int i = 0; i < nparam; i++) {
     int act = i >= bias2 ? i - bias2 : i - bias1;
     if (i >= bias1 && act < nu && m->actuator_biastype[act] != mjBIAS_AFFINE) {
+      continue;
+    }
+    if (i >= gain0 && i < gain0 + nu && m->actuator_gaintype[i - gain0] != mjGAIN_FIXED) {
       continue;
     }
     gtheta[i] += gxi[nx + nu + i];

@@ -135,16 +135,14 @@ static void actuatorRefusals(const mjModel* m, int i, ostRefusalList* l) {
   const char* name = ost_objName(m, mjOBJ_ACTUATOR, i, nb, sizeof(nb));
   const mjtNum* b = m->actuator_biasprm + i * mjNBIAS;
   int dt = m->actuator_dyntype[i], gt = m->actuator_gaintype[i], bt = m->actuator_biastype[i];
-  // integrator and filter activations are taken implicitly (core/ost_activation.h)
-  if (dt == mjDYN_MUSCLE) {
-    ost_refuse(l, "actuator", name, "muscle activation dynamics (dyntype muscle; Ostrich takes "
-               "dyntype integrator and filter)");
-  } else if (dt != mjDYN_NONE && dt != mjDYN_INTEGRATOR && dt != mjDYN_FILTER) {
+  // integrator, filter and muscle activations are taken implicitly (core/ost_activation.h),
+  // muscle gains and biases as explicit forces (core/ost_muscle.h)
+  if (dt != mjDYN_NONE && dt != mjDYN_INTEGRATOR && dt != mjDYN_FILTER && dt != mjDYN_MUSCLE) {
     ost_refuse(l, "actuator", name, "activation dynamics (dyntype %s%s)",
                dt >= 0 && dt <= mjDYN_USER ? dyn[dt] : "unknown",
                dt == mjDYN_USER ? ": the mjcb_act_dyn callback" : "");
   }
-  if (gt != mjGAIN_FIXED) {
+  if (gt != mjGAIN_FIXED && gt != mjGAIN_MUSCLE) {
     ost_refuse(l, "actuator", name, "a non-fixed gain (gaintype %s)",
                gt >= 0 && gt <= mjGAIN_USER ? gain[gt] : "unknown");
   }
@@ -153,9 +151,9 @@ static void actuatorRefusals(const mjModel* m, int i, ostRefusalList* l) {
   }
   if (bt == mjBIAS_AFFINE && (b[1] > 0 || b[2] > 0)) {
     ost_refuse(l, "actuator", name, "an affine bias with positive position or velocity feedback");
-  } else if (bt != mjBIAS_NONE && bt != mjBIAS_AFFINE) {
-    ost_refuse(l, "actuator", name, "a %s bias (biastype %s)",
-               bt == mjBIAS_MUSCLE ? "muscle" : "user", bt <= mjBIAS_USER ? bias[bt] : "unknown");
+  } else if (bt != mjBIAS_NONE && bt != mjBIAS_AFFINE && bt != mjBIAS_MUSCLE) {
+    ost_refuse(l, "actuator", name, "a user bias (biastype %s)",
+               bt >= 0 && bt <= mjBIAS_USER ? bias[bt] : "unknown");
   }
 }
 
@@ -168,9 +166,11 @@ int ost_actuatorKind(const mjModel* m, int i, char* err, int err_sz) {
     ost_refusalMessage(&l, "unsupported by Ostrich", err, err_sz);
     return -1;
   }
-  // affine bias with feedback: force = g ctrl + b0 + b1 L + b2 V is an implicit servo row
+  // fixed gain, affine bias with feedback: force = g ctrl + b0 + b1 L + b2 V is an implicit
+  // servo row; a muscle gain (-F FL FV, nonlinear in L and V) keeps its bias explicit
   const mjtNum* b = m->actuator_biasprm + i * mjNBIAS;
-  if (m->actuator_biastype[i] == mjBIAS_AFFINE && (b[1] < 0 || b[2] < 0)) {
+  if (m->actuator_gaintype[i] == mjGAIN_FIXED && m->actuator_biastype[i] == mjBIAS_AFFINE
+      && (b[1] < 0 || b[2] < 0)) {
     return 1;
   }
   return 0;  // motor-like: explicit force

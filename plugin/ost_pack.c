@@ -417,15 +417,25 @@ int ost_packModel(const mjModel* m, int ncon_max, ostModel* om, void** block, ch
     om->actuator_ctrllimited[i] = m->actuator_ctrllimited[i];
     om->actuator_forcelimited[i] = m->actuator_forcelimited[i];
     om->actuator_gear[i] = m->actuator_gear[6 * i];
+    // gain and bias by type: MuJoCo reads biasprm only for an affine bias, and a muscle's
+    // parameters are its curves' (gainmus, biasmus: core/ost_muscle.h)
+    om->actuator_gaintype[i] = m->actuator_gaintype[i];
+    om->actuator_biastype[i] = m->actuator_biastype[i];
     om->actuator_gainprm[i] = m->actuator_gainprm[mjNGAIN * i];
-    COPY(om->actuator_biasprm + 3 * i, m->actuator_biasprm + mjNBIAS * i, 3);
+    if (m->actuator_biastype[i] == mjBIAS_AFFINE) {
+      COPY(om->actuator_biasprm + 3 * i, m->actuator_biasprm + mjNBIAS * i, 3);
+    }
+    COPY(om->actuator_gainmus + 9 * i, m->actuator_gainprm + mjNGAIN * i, 9);
+    COPY(om->actuator_biasmus + 9 * i, m->actuator_biasprm + mjNBIAS * i, 9);
+    COPY(om->actuator_lengthrange + 2 * i, m->actuator_lengthrange + 2 * i, 2);
+    om->actuator_acc0[i] = m->actuator_acc0[i];
     COPY(om->actuator_ctrlrange + 2 * i, m->actuator_ctrlrange + 2 * i, 2);
     COPY(om->actuator_forcerange + 2 * i, m->actuator_forcerange + 2 * i, 2);
     // activation i - (nu - na) belongs to actuator i (mj_fwdActuation)
     om->actuator_dyntype[i] = m->actuator_dyntype[i];
     om->actuator_actadr[i] = m->actuator_dyntype[i] == mjDYN_NONE ? -1 : i - (s.nu - s.na);
     om->actuator_actlimited[i] = m->actuator_actlimited[i];
-    om->actuator_dynprm[i] = m->actuator_dynprm[mjNDYN * i];
+    COPY(om->actuator_dynprm + 2 * i, m->actuator_dynprm + mjNDYN * i, 2);
     COPY(om->actuator_actrange + 2 * i, m->actuator_actrange + 2 * i, 2);
   }
 #undef COPY

@@ -526,7 +526,7 @@ static void activation(ostContext* c, const mjModel* m, const mjData* d, mjtNum 
     }
     int j = i - (m->nu - m->na);  // activation j belongs to actuator i (mj_fwdActuation)
     c->act_next[j] = off ? d->act[j]
-                         : osti_actNext(m->actuator_dyntype[i], m->actuator_dynprm[i * mjNDYN],
+                         : osti_actNext(m->actuator_dyntype[i], m->actuator_dynprm + i * mjNDYN,
                                         m->actuator_actlimited[i], m->actuator_actrange + 2 * i,
                                         d->act[j], u, h);
     c->act_input[i] = c->act_next[j];

@@ -297,7 +297,7 @@ typedef enum ostParam_ {
   OST_PARAM_FRICTION = 0,         // geom_friction[g][0], sliding friction           (ngeom)
   OST_PARAM_MASS,                 // body_mass[b] (inertia held fixed)               (nbody)
   OST_PARAM_DAMPING,              // dof_damping[j]                                  (nv)
-  OST_PARAM_GAIN,                 // actuator_gainprm[i][0]: kp or kv of a servo     (nu)
+  OST_PARAM_GAIN,                 // actuator_gainprm[i][0]: kp or kv (fixed gain only) (nu)
   OST_PARAM_BIASPOS,              // actuator_biasprm[i][1] (= -kp of a position servo) (nu)
   OST_PARAM_BIASVEL,              // actuator_biasprm[i][2] (= -kv of a servo)       (nu)
   OST_NPARAM                      // number of groups

@@ -173,18 +173,19 @@ START_TEST(test_filterServoLargeStep) {
 END_TEST
 
 
-// a model with a muscle is refused with a message naming the actuator and the dynamics
-START_TEST(test_muscleRefused) {
+// a model with user activation dynamics is refused with a message naming the actuator and the
+// callback (muscles are taken: tests/test_ost_muscle.c)
+START_TEST(test_userDynamicsRefused) {
   ost_fixtureSetup();
   mjModel* m = ost_fixtureLoadString(
       "<mujoco><worldbody><body><joint name='j' type='slide' axis='1 0 0'/>"
       "<geom type='box' size='0.1 0.1 0.1' mass='1'/></body></worldbody>"
-      "<actuator><muscle name='mus' joint='j' lengthrange='-1 1'/></actuator></mujoco>");
+      "<actuator><general name='usr' joint='j' dyntype='user'/></actuator></mujoco>");
   char err[512] = "";
   ck_assert_int_eq(ost_checkModel(m, err, sizeof(err)), OST_ERR_MODEL);
-  printf("muscle: %s\n", err);
-  ck_assert_ptr_nonnull(strstr(err, "'mus'"));
-  ck_assert_ptr_nonnull(strstr(err, "dyntype muscle"));
+  printf("user dynamics: %s\n", err);
+  ck_assert_ptr_nonnull(strstr(err, "'usr'"));
+  ck_assert_ptr_nonnull(strstr(err, "mjcb_act_dyn"));
   mj_deleteModel(m);
 }
 END_TEST
@@ -368,7 +369,7 @@ static Suite* suite(void) {
   tcase_add_test(tc, test_filterContinuous);
   tcase_add_test(tc, test_integratorClamps);
   tcase_add_test(tc, test_filterServoLargeStep);
-  tcase_add_test(tc, test_muscleRefused);
+  tcase_add_test(tc, test_userDynamicsRefused);
   tcase_add_test(tc, test_transitionGradients);
   tcase_add_test(tc, test_tapeControlGradient);
   suite_add_tcase(s, tc);
