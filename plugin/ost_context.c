@@ -25,6 +25,8 @@ static void freeContext(ostContext* c) {
     mj_deleteModel(c->mo);
   }
   free(c->servo);
+  free(c->ten_implicit);
+  free(c->ten_dt);
   free(c->qpos_prev);
   free(c->state_end);
   free(c->state_start);
@@ -49,7 +51,7 @@ int ost_rowCapacity(const mjModel* m) {
 
 int ost_rowCapacityFor(const mjModel* m, int ncon) {
   // equality rows (weld: 6), two limit sides per joint and tendon, dry friction per dof and
-  // tendon, a contact's normal and friction rows, a servo per actuator
+  // tendon, a spring row per tendon, a contact's normal and friction rows, a servo per actuator
   int condim = 3;  // rows per contact: 1 + the friction rows of the largest condim
   for (int i = 0; i < m->ngeom; i++) {
     condim = m->geom_condim[i] > condim ? m->geom_condim[i] : condim;
@@ -57,7 +59,7 @@ int ost_rowCapacityFor(const mjModel* m, int ncon) {
   for (int i = 0; i < m->npair; i++) {
     condim = m->pair_dim[i] > condim ? m->pair_dim[i] : condim;
   }
-  return 6 * m->neq + 2 * m->njnt + 3 * m->ntendon + m->nv + condim * ncon + m->nu;
+  return 6 * m->neq + 2 * m->njnt + 4 * m->ntendon + m->nv + condim * ncon + m->nu;
 }
 
 
@@ -174,13 +176,15 @@ static ostContext* newContext(const mjModel* m, const mjData* d) {
   c->d_buffer = d->buffer;
   c->m = m;
   c->servo = (int*)calloc(m->nu > 0 ? m->nu : 1, sizeof(int));
+  c->ten_implicit = (unsigned char*)calloc(m->ntendon > 0 ? m->ntendon : 1, 1);
+  c->ten_dt = (mjtNum*)calloc(m->ntendon > 0 ? m->ntendon : 1, sizeof(mjtNum));
   c->qpos_prev = (mjtNum*)calloc(m->nq > 0 ? m->nq : 1, sizeof(mjtNum));
   c->jac = (mjtNum*)calloc(12 * (m->nv > 0 ? m->nv : 1), sizeof(mjtNum));
   c->state_end = (mjtNum*)calloc(1 + m->nq + 2 * m->nv + m->na, sizeof(mjtNum));
   c->state_start = (mjtNum*)calloc(1 + m->nq + 2 * m->nv + m->na, sizeof(mjtNum));
   c->act_input = (mjtNum*)calloc(m->nu + 2 * m->na + 1, sizeof(mjtNum));
   c->act_next = c->act_input + m->nu;
-  if (!c->servo || !c->qpos_prev || !c->state_end || !c->state_start || !c->jac
+  if (!c->servo || !c->ten_implicit || !c->ten_dt || !c->qpos_prev || !c->state_end || !c->state_start || !c->jac
       || !c->act_input || ost_growCapacity(c, m->nconmax, m->njmax)) {
     freeContext(c);
     return NULL;

@@ -61,6 +61,10 @@ typedef struct ostContext_ {
   ostTotals      totals;          // counts of all steps (ost_totals)
   char           err[512];        // message of the last failure
   int*           servo;           // 1 if actuator i is an implicit servo row     (nu)
+  unsigned char* ten_implicit;    // 1 if tendon t's spring and damper are an implicit row this
+                                  // substep (mujocoStart decides, ost_rowsMujoco builds) (ntendon)
+  mjtNum*        ten_dt;          // tendon t's J M^-1 J', refreshed every 8th substep (ntendon)
+  int            ten_age;         // substeps since ten_dt was refreshed
   mjtNum*        qpos_prev;       // q- of the current step                        (nq)
   mjtNum*        state_start;     // state at ost_step2 entry     (1 + nq + 2 nv + na)
   mjtNum*        state_end;       // state after the last step    (1 + nq + 2 nv + na)
@@ -132,6 +136,9 @@ int ost_capacityFail(ostContext* c, const char* what, int cap);
 // fill the world's rows and Jacobians at the configuration in d->qpos using MuJoCo's own
 // kinematics and collision on the private model (the `mujoco` geometry provider)
 int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h);
+
+// tendon t's Jacobian row of d into the dense row J (nv), whether MuJoCo stores it sparse or not
+void ost_tendonRow(const mjModel* m, const mjData* d, int t, mjtNum* J);
 
 // the `native` provider's rows at the configuration in d->qpos (core/ost_rows_native.h), with
 // the substep's actuator inputs c->act_input

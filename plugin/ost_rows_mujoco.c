@@ -28,6 +28,20 @@ static void efcRow(const mjModel* m, const mjData* d, int i, ostNum* J) {
 }
 
 
+void ost_tendonRow(const mjModel* m, const mjData* d, int t, mjtNum* J) {
+  int nv = m->nv;
+  if (mj_isSparse(m)) {
+    memset(J, 0, nv * sizeof(mjtNum));
+    int adr = d->ten_J_rowadr[t];
+    for (int k = 0; k < d->ten_J_rownnz[t]; k++) {
+      J[d->ten_J_colind[adr + k]] = d->ten_J[adr + k];
+    }
+  } else {
+    memcpy(J, d->ten_J + (size_t)t * nv, nv * sizeof(mjtNum));
+  }
+}
+
+
 // the translational Jacobian of body b at pos, on b's dof chain only, into jac (3 x nv, rows
 // apart by nv; entries off the chain are left as they are), as mj_jac computes it
 // (engine_support.c): column j = cdof_lin + cdof_ang x (pos - subtree_com of b's root); and
@@ -401,6 +415,27 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
       osti_servoRow(w->rows + n, i, g[0], b, c->act_input[i], d->actuator_length[i], h,
                     m->actuator_forcelimited[i], m->actuator_forcerange + 2 * i);
       memcpy(osti_rowScratch(w, n), d->actuator_moment + (size_t)i * nv, nv * sizeof(ostNum));
+      if (osti_rowStore(w, n, 1)) {
+        return widthOverflow(c);
+      }
+      n++;
+    }
+  }
+  // stiff tendon springs and dampers (c->ten_implicit, mujocoStart) as implicit rows: the servo
+  // row of gain 0 and bias (k L0, -k, -b), force = -k (L(q+) - L0) - b J u+ (mj_passive's
+  // tendon force, taken at the end of the step), stable at any h
+  if (!(m->opt.disableflags & mjDSBL_PASSIVE)) {
+    const ostNum none[2] = {0, 0};
+    for (int t = 0; t < m->ntendon; t++) {
+      mjtNum k = m->tendon_stiffness[t], b = m->tendon_damping[t];
+      if (!c->ten_implicit[t]) {
+        continue;
+      }
+      NEED_ROWS(1);
+      mjtNum bias[3] = {k * m->tendon_lengthspring[t], -k, -b};
+      osti_servoRow(w->rows + n, t, 0, bias, 0, d->ten_length[t], h, 0, none);
+      w->rows[n].obj[1] = 1;  // a tendon, not an actuator
+      ost_tendonRow(m, d, t, osti_rowScratch(w, n));
       if (osti_rowStore(w, n, 1)) {
         return widthOverflow(c);
       }

@@ -476,6 +476,40 @@ static void mujocoStart(ostContext* c, const mjModel* m, mjData* d, mjtNum h, in
     }
   }
 
+  // a tendon spring or damper that the explicit step could not carry becomes an implicit row
+  // (ost_rowsMujoco): with d_t = J M^-1 J' (the tendon's inverse effective mass), explicit Euler
+  // needs h omega = h sqrt(k d_t) < 2 and h b d_t < 2; past half of either the tendon is a row,
+  // and its force at (q-, u-), which mj_passive put into qfrc_smooth, leaves f. d_t moves with
+  // the pose slowly: it is refreshed every 8th substep (a tendon would have to get 4 times
+  // stiffer in between to pass the limit explicitly)
+  int refresh = c->ten_age++ % 8 == 0;
+  for (int t = 0; t < m->ntendon; t++) {
+    mjtNum k = m->tendon_stiffness[t], b = m->tendon_damping[t];
+    c->ten_implicit[t] = 0;
+    if ((m->opt.disableflags & mjDSBL_PASSIVE) || (!(k > 0) && !(b > 0))) {
+      continue;
+    }
+    mjtNum* Jt = w->tmp;  // scratch of 2 nv
+    mjtNum* x = w->tmp + nv;
+    if (refresh) {
+      ost_tendonRow(m, d, t, Jt);
+      mj_solveM(m, d, x, Jt, 1);
+      c->ten_dt[t] = mju_dot(Jt, x, nv);
+    }
+    mjtNum dt = c->ten_dt[t];
+    if (!(h * h * k * dt > 1 || h * b * dt > 1)) {
+      continue;
+    }
+    c->ten_implicit[t] = 1;
+    if (!refresh) {
+      ost_tendonRow(m, d, t, Jt);
+    }
+    mjtNum frc = -k * (d->ten_length[t] - m->tendon_lengthspring[t]) - b * d->ten_velocity[t];
+    for (int j = 0; j < nv; j++) {
+      w->qfrc_explicit[j] -= Jt[j] * frc;
+    }
+  }
+
   // Mt = M(q-) + h D (implicit joint damping, as MuJoCo's Euler), factored once per step. M by
   // the private model's CRB, which follows run-time mass edits (ost_prepareContext); only a
   // model with simple dofs needs it: otherwise d->qM already came from CRB on m

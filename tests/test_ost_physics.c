@@ -357,6 +357,38 @@ START_TEST(test_stiffSpringImplicit) {
 END_TEST
 
 
+// the same stiff spring as a fixed tendon's (stiffness 100 on the hinge, coefficient 1, rest
+// length 0): h^2 k J M^-1 J' = 86 > 1, so the tendon is an implicit row of the step and follows
+// the same backward Euler recurrence (mujoco provider: native has no tendons)
+START_TEST(test_stiffTendonSpringImplicit) {
+  ost_fixtureSetup();
+  mjModel* m = ost_fixtureLoadString(
+      "<mujoco><option gravity='0 0 0'/><worldbody><body><joint name='j' type='hinge'"
+      " axis='0 0 1'/><geom type='box' size='0.05 0.05 0.05' pos='0.1 0 0' mass='1'"
+      " contype='0' conaffinity='0'/></body></worldbody><tendon><fixed stiffness='100'>"
+      "<joint joint='j' coef='1'/></fixed></tendon></mujoco>");
+  mjData* d = mj_makeData(m);
+  mj_forward(m, d);
+  double I = d->qM[0], k = 100, h = 0.1;
+  ck_assert_double_eq(m->tendon_lengthspring[0], 0);
+  ost_fixtureSetTimestep(m, d, h);
+  mj_resetData(m, d);
+  d->qpos[0] = 0.5;
+  double q = 0.5, u = 0;
+  for (int s = 0; s < 100; s++) {
+    ck_assert_int_eq(ost_step(m, d), OST_OK);
+    u = (I * u - h * k * q) / (I + h * h * k);
+    q += h * u;
+    // the same recurrence: rounding and the solver's tol (1e-10) only
+    ck_assert_double_eq_tol(d->qvel[0], u, 1e-9);
+    ck_assert_double_eq_tol(d->qpos[0], q, 1e-9);
+  }
+  ost_deleteData(d);
+  mj_deleteModel(m);
+}
+END_TEST
+
+
 // implicit position servo at h = 0.1 s: converges to the target and stays finite for any gain
 START_TEST(test_servoAnyGain) {
   ost_fixtureSetup();
@@ -471,6 +503,7 @@ int main(void) {
   tcase_add_test(tc, test_pendulumClosedForm);
   tcase_add_test(tc, test_servoAnyGain);
   tcase_add_test(tc, test_stiffSpringImplicit);
+  tcase_add_test(tc, test_stiffTendonSpringImplicit);
   tcase_add_test(tc, test_heavyOnLight);
   tcase_add_test(tc, test_chainAgreesWithMujoco);
   suite_add_tcase(s, tc);
