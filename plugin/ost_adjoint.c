@@ -139,8 +139,8 @@ static int adjointPrepare(ostContext* c, const mjModel* m) {
   }
   c->adj_model_block = c->native_block;
 
-  // friction of a dynamic pair is max(mu1, mu2) (MuJoCo's mixing); an explicit <pair> has its
-  // own coefficient, which no geom parameter moves
+  // friction of a dynamic pair is max(mu1, mu2), or the higher-priority geom's (MuJoCo's
+  // mixing); an explicit <pair> has its own coefficient, which no geom parameter moves
   for (int p = 0; p < c->native.s.npair; p++) {
     int g1 = c->native.pair_geom1[p], g2 = c->native.pair_geom2[p], expl = 0;
     for (int i = 0; i < m->npair; i++) {
@@ -148,9 +148,11 @@ static int adjointPrepare(ostContext* c, const mjModel* m) {
               || (m->pair_geom1[i] == g2 && m->pair_geom2[i] == g1);
     }
     mjtNum f1 = m->geom_friction[3 * g1], f2 = m->geom_friction[3 * g2];
+    int p1 = m->geom_priority[g1], p2 = m->geom_priority[g2];
     c->adj_fric_geom[2 * p] = expl ? -1 : g1;
     c->adj_fric_geom[2 * p + 1] = expl ? -1 : g2;
-    c->adj_fric_weight[2 * p] = f1 > f2 ? 1 : (f1 < f2 ? 0 : 0.5);
+    // the higher priority's coefficient, else the larger (ost_pack.c candidatePairs)
+    c->adj_fric_weight[2 * p] = p1 != p2 ? (p1 > p2) : (f1 > f2 ? 1 : (f1 < f2 ? 0 : 0.5));
     c->adj_fric_weight[2 * p + 1] = 1 - c->adj_fric_weight[2 * p];
   }
   return OST_OK;
