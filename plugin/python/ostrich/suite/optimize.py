@@ -81,7 +81,8 @@ def _pendulum_surrogate(env):
 
 def _reacher_surrogate(env):
   # the sparse reward is 1 while the finger touches the target; the surrogate keeps that and
-  # adds a long-tailed slope in the distance (0.1 at 0.1 m beyond contact): the arm reaches 0.22
+  # falls linearly in the distance outside it, to 0 at 0.5 m (no target is farther from the
+  # finger: the arm reaches 0.22 m, targets lie within 0.2 m), so its slope never vanishes
   model = env.physics.named.model
   base = np.array(model.body_pos["arm"][:2], dtype=float)
   l1, l2 = float(model.body_pos["hand"][0]), float(model.body_pos["finger"][0])
@@ -92,7 +93,8 @@ def _reacher_surrogate(env):
     a, b = qpos[..., 0], qpos[..., 0] + qpos[..., 1]
     dx = target[0] - (base[0] + l1 * np.cos(a) + l2 * np.cos(b))
     dy = target[1] - (base[1] + l1 * np.sin(a) + l2 * np.sin(b))
-    return tolerance(np.sqrt(dx ** 2 + dy ** 2), (0, radii), margin=0.1, sigmoid="long_tail")
+    return tolerance(np.sqrt(dx ** 2 + dy ** 2), (0, radii), margin=0.5, sigmoid="linear",
+                     value_at_margin=0)
   return f
 
 
@@ -127,7 +129,7 @@ def _walker_walk_surrogate(env):
 SURROGATES = {
     ("pendulum", "swingup"): (_pendulum_surrogate, "reward within 8 deg of upright, linear in "
                               "cos(angle) outside (the reward is sparse)"),
-    ("reacher", "easy"): (_reacher_surrogate, "reward at contact, long-tailed in the finger's "
+    ("reacher", "easy"): (_reacher_surrogate, "reward at contact, linear in the finger's "
                           "distance outside (the reward is sparse)"),
     ("cheetah", "run"): (_cheetah_surrogate, "torso's forward speed / 10 m/s, unclipped (the "
                          "reward uses the subtree's velocity)"),
@@ -352,10 +354,12 @@ class Adam:
 def gradient_ascent(problem, grad, lr=ADAM_LR, log=None):
   """Adam on J with gradients grad(actions) -> (J, dJ/dA), actions clipped to the spec. Yields
   (objective, actions, bad) per iteration; an unusable iterate is reported, counted, and
-  replaced by the best one so far with half the step."""
+  replaced by the best one so far with half the step (doubled again, up to lr, after 10
+  accepted iterations in a row)."""
   x = problem.initial_actions()
   adam = Adam(x.shape, lr)
   best_x, best_J = x.copy(), -np.inf
+  accepted = 0
   while True:
     try:
       J, g = grad(x)
@@ -363,9 +367,12 @@ def gradient_ascent(problem, grad, lr=ADAM_LR, log=None):
       if log:
         log(f"rejected: {e}; back to the best actions, step {adam.lr:.3g} -> {adam.lr / 2:.3g}")
       adam = Adam(x.shape, adam.lr / 2)
-      x = best_x.copy()
+      x, accepted = best_x.copy(), 0
       yield best_J, best_x, 1
       continue
+    accepted += 1
+    if accepted % 10 == 0 and adam.lr < lr:
+      adam.lr = min(lr, 2 * adam.lr)
     if J > best_J:
       best_x, best_J = x.copy(), J
     yield J, x, 0
