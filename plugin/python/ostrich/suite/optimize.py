@@ -496,6 +496,9 @@ def _temporary_beside(path):
   fd, tmp = tempfile.mkstemp(dir=os.path.dirname(os.path.abspath(path)),
                              prefix="." + os.path.basename(path) + ".", suffix=".tmp")
   os.close(fd)
+  umask = os.umask(0)
+  os.umask(umask)
+  os.chmod(tmp, 0o666 & ~umask)  # mkstemp's 0600 would outlive the rename
   return tmp
 
 
