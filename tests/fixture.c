@@ -3,6 +3,7 @@
 
 #include "ostrich.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -82,4 +83,92 @@ void ost_fixtureSetTimestep(const mjModel* m, mjData* d, double h) {
   ck_assert_int_eq(ost_readOptions(m, &opt, NULL, 0), OST_OK);
   opt.timestep = h;
   ck_assert_int_eq(ost_setOptions(m, d, &opt), OST_OK);
+}
+
+
+void ost_fixtureSetProvider(const mjModel* m, mjData* d, double h, int geometry) {
+  ostOptions opt;
+  ck_assert_int_eq(ost_readOptions(m, &opt, NULL, 0), OST_OK);
+  opt.timestep = h;
+  opt.geometry = geometry;
+  ck_assert_int_eq(ost_setOptions(m, d, &opt), OST_OK);
+}
+
+
+void ost_fixtureTransitionFD(const mjModel* m, mjData* d, double eps, double* A, double* B) {
+  int nq = m->nq, nv = m->nv, na = m->na, nu = m->nu, nx = 2 * nv + na;
+  // the start state (q0, v0, a0, u0), the two perturbed results x (2 nx), a tangent dq (nv)
+  // and the unperturbed step's qpos (qbase, nq), in one block
+  double* s0 = (double*)malloc((2 * nq + 2 * nv + na + nu + 2 * nx) * sizeof(double));
+  double *q0 = s0, *v0 = q0 + nq, *a0 = v0 + nv, *u0 = a0 + na, *x = u0 + nu;
+  double *dq = x + 2 * nx, *qbase = dq + nv;
+  double t0 = d->time;
+  memcpy(q0, d->qpos, nq * sizeof(double));
+  memcpy(v0, d->qvel, nv * sizeof(double));
+  memcpy(a0, d->act, na * sizeof(double));
+  memcpy(u0, d->ctrl, nu * sizeof(double));
+  ck_assert_int_eq(ost_step(m, d), OST_OK);  // the unperturbed step: the tangent's base point
+  memcpy(qbase, d->qpos, nq * sizeof(double));
+  for (int j = 0; j < nx + nu; j++) {
+    for (int side = 0; side < 2; side++) {
+      double e = side ? -eps : eps;
+      memcpy(d->qpos, q0, nq * sizeof(double));
+      memcpy(d->qvel, v0, nv * sizeof(double));
+      memcpy(d->act, a0, na * sizeof(double));
+      memcpy(d->ctrl, u0, nu * sizeof(double));
+      d->time = t0;
+      if (j < nv) {
+        for (int i = 0; i < nv; i++) dq[i] = i == j ? e : 0;
+        mj_integratePos(m, d->qpos, dq, 1);
+      } else if (j < 2 * nv) {
+        d->qvel[j - nv] += e;
+      } else if (j < nx) {
+        d->act[j - 2 * nv] += e;
+      } else {
+        d->ctrl[j - nx] += e;
+      }
+      mj_forward(m, d);
+      ck_assert_int_eq(ost_step(m, d), OST_OK);
+      double* xs = x + side * nx;
+      mj_differentiatePos(m, xs, 1, qbase, d->qpos);
+      memcpy(xs + nv, d->qvel, nv * sizeof(double));
+      memcpy(xs + 2 * nv, d->act, na * sizeof(double));
+    }
+    for (int i = 0; i < nx; i++) {
+      double fd = (x[i] - x[nx + i]) / (2 * eps);
+      if (j < nx) {
+        A[i * nx + j] = fd;
+      } else {
+        B[i * nu + j - nx] = fd;
+      }
+    }
+  }
+  memcpy(d->qpos, q0, nq * sizeof(double));
+  memcpy(d->qvel, v0, nv * sizeof(double));
+  memcpy(d->act, a0, na * sizeof(double));
+  memcpy(d->ctrl, u0, nu * sizeof(double));
+  d->time = t0;
+  mj_forward(m, d);
+  free(s0);
+}
+
+
+void ost_fixtureSetState(const mjModel* m, mjData* d, const double* q, const double* v,
+                         const double* a, const double* u) {
+  memcpy(d->qpos, q, m->nq * sizeof(double));
+  memcpy(d->qvel, v, m->nv * sizeof(double));
+  memcpy(d->act, a, m->na * sizeof(double));
+  memcpy(d->ctrl, u, m->nu * sizeof(double));
+  d->time = 0;
+  mj_forward(m, d);
+}
+
+
+double ost_fixtureMaxDiff(const double* a, const double* b, int n, double* scale) {
+  double e = 0;
+  for (int i = 0; i < n; i++) {
+    e = fabs(a[i] - b[i]) > e ? fabs(a[i] - b[i]) : e;
+    *scale = fabs(a[i]) > *scale ? fabs(a[i]) : *scale;
+  }
+  return e;
 }

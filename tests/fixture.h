@@ -24,6 +24,21 @@ mjModel* ost_fixtureTryLoadString(const char* xml, char* err, int err_sz);
 // make Ostrich step d with timestep h (the model's other ostrich/* options kept)
 void ost_fixtureSetTimestep(const mjModel* m, mjData* d, double h);
 
+// make Ostrich step d with timestep h and geometry provider geometry (ostGeometry)
+void ost_fixtureSetProvider(const mjModel* m, mjData* d, double h, int geometry);
+
+// central differences of one ost_step from d's state (qpos along the tangent, qvel, act; ctrl),
+// each column perturbed by +-eps, in mjd_transitionFD's layout: A (nx x nx, nx = 2 nv + na),
+// B (nx x nu). Every perturbed step must return OST_OK; d's state is left as it was.
+void ost_fixtureTransitionFD(const mjModel* m, mjData* d, double eps, double* A, double* B);
+
+// d's state: qpos (nq), qvel (nv), act (na) and ctrl (nu) from the arrays, time 0, mj_forward
+void ost_fixtureSetState(const mjModel* m, mjData* d, const double* q, const double* v,
+                         const double* a, const double* u);
+
+// max |a - b| over n entries; *scale becomes the larger of itself and max |a|
+double ost_fixtureMaxDiff(const double* a, const double* b, int n, double* scale);
+
 // run a suite and return the process exit status
 int ost_fixtureRun(Suite* s);
 

@@ -31,15 +31,6 @@ static mjModel* slider(const char* dyn, double tau, double kp, double kv, const 
 }
 
 
-static void setProvider(const mjModel* m, mjData* d, double h, int geometry) {
-  ostOptions opt;
-  ck_assert_int_eq(ost_readOptions(m, &opt, NULL, 0), OST_OK);
-  opt.timestep = h;
-  opt.geometry = geometry;
-  ck_assert_int_eq(ost_setOptions(m, d, &opt), OST_OK);
-}
-
-
 // a filter of tau = 0.1 s driven by ctrl = 1 from act = 0: after every step act equals the
 // backward-Euler recurrence a+ = (tau a- + h) / (tau + h), and the motor's force is act+ (the
 // slider's acceleration (u+ - u-) / h = act+ / 1 kg), with both geometry providers
@@ -50,7 +41,7 @@ START_TEST(test_filterRecurrence) {
   ck_assert_int_eq(m->na, 1);
   for (int geometry = 0; geometry < 2; geometry++) {
     mjData* d = mj_makeData(m);
-    setProvider(m, d, h, geometry);
+    ost_fixtureSetProvider(m, d, h, geometry);
     d->ctrl[0] = 1;
     double a = 0, worst_act = 0, worst_acc = 0;
     for (int k = 0; k < 50; k++) {
@@ -84,7 +75,7 @@ START_TEST(test_filterContinuous) {
   for (int r = 0; r < 3; r++) {
     double h = tau / (100 << r);
     mjData* d = mj_makeData(m);
-    setProvider(m, d, h, 0);
+    ost_fixtureSetProvider(m, d, h, 0);
     d->ctrl[0] = 1;
     int n = 100 << r;
     for (int k = 0; k < n; k++) {
@@ -114,7 +105,7 @@ START_TEST(test_integratorClamps) {
   mjModel* m = slider("integrator", 0, 0, 0, "ctrllimited='true' ctrlrange='-1 1' "
                       "actlimited='true' actrange='0 0.5'");
   mjData* d = mj_makeData(m);
-  setProvider(m, d, 0.1, 0);
+  ost_fixtureSetProvider(m, d, 0.1, 0);
   d->ctrl[0] = 5;
   for (int k = 1; k <= 8; k++) {
     ck_assert_int_eq(ost_step(m, d), OST_OK);
@@ -151,7 +142,7 @@ START_TEST(test_filterServoLargeStep) {
   mjModel* m = slider("filter", 1e-3, 100, 20, "");
   for (int geometry = 0; geometry < 2; geometry++) {
     mjData* d = mj_makeData(m);
-    setProvider(m, d, 0.1, geometry);
+    ost_fixtureSetProvider(m, d, 0.1, geometry);
     d->ctrl[0] = 0.5;
     double peak = 0;
     for (int k = 0; k < 50; k++) {
@@ -212,18 +203,6 @@ static mjModel* pendulum(void) {
 }
 
 
-// d's state: qpos, qvel, act and ctrl from the arrays (nv, nv, na, nu), then mj_forward
-static void setState(const mjModel* m, mjData* d, const double* q, const double* v,
-                     const double* a, const double* u) {
-  for (int i = 0; i < m->nq; i++) d->qpos[i] = q[i];
-  for (int i = 0; i < m->nv; i++) d->qvel[i] = v[i];
-  for (int i = 0; i < m->na; i++) d->act[i] = a[i];
-  for (int i = 0; i < m->nu; i++) d->ctrl[i] = u[i];
-  d->time = 0;
-  mj_forward(m, d);
-}
-
-
 // ost_transition's A (nx x nx, nx = 2 nv + na) and B (nx x nu) against central differences of
 // ost_step, each column perturbed by +-eps (qpos along the tangent, mjd_transitionFD's layout)
 START_TEST(test_transitionGradients) {
@@ -232,51 +211,19 @@ START_TEST(test_transitionGradients) {
   int nv = m->nv, na = m->na, nu = m->nu, nx = 2 * nv + na;
   ck_assert_int_eq(na, 2);
   mjData* d = mj_makeData(m);
-  setProvider(m, d, 0.01, 1);
+  ost_fixtureSetProvider(m, d, 0.01, 1);
   double q0[2] = {0.4, -0.7}, v0[2] = {0.3, -0.5}, a0[2] = {0.2, -0.3}, u0[3] = {0.5, 0.8, 0.4};
-  double A[64], B[64], x[2][8], worst_a = 0, worst_b = 0, scale = 0;
-  setState(m, d, q0, v0, a0, u0);
+  double A[64], B[64], worst_a = 0, worst_b = 0, scale = 0;
+  ost_fixtureSetState(m, d, q0, v0, a0, u0);
   for (int i = 0; i < nx * nx; i++) A[i] = NAN;  // poisoned: every entry must be written
   for (int i = 0; i < nx * nu; i++) B[i] = NAN;
   ck_assert_int_eq(ost_transition(m, d, A, B), OST_OK);
   ck_assert(d->act[0] == a0[0] && d->act[1] == a0[1]);  // the state is left as it was
   ck_assert(d->qpos[0] == q0[0] && d->qvel[1] == v0[1]);
-  const double eps = 1e-6;
-  double qref[2];
-  for (int j = 0; j < nx + nu; j++) {
-    for (int side = 0; side < 2; side++) {
-      double e = side ? -eps : eps, q[2] = {q0[0], q0[1]}, v[2] = {v0[0], v0[1]};
-      double a[2] = {a0[0], a0[1]}, u[3] = {u0[0], u0[1], u0[2]};
-      if (j < nv) {
-        q[j] += e;  // hinges: the tangent is the coordinate
-      } else if (j < 2 * nv) {
-        v[j - nv] += e;
-      } else if (j < nx) {
-        a[j - 2 * nv] += e;
-      } else {
-        u[j - nx] += e;
-      }
-      setState(m, d, q, v, a, u);
-      ck_assert_int_eq(ost_step(m, d), OST_OK);
-      if (side == 0) {
-        qref[0] = d->qpos[0];
-        qref[1] = d->qpos[1];
-      }
-      mj_differentiatePos(m, x[side], 1, qref, d->qpos);
-      for (int i = 0; i < nv; i++) x[side][nv + i] = d->qvel[i];
-      for (int i = 0; i < na; i++) x[side][2 * nv + i] = d->act[i];
-    }
-    for (int i = 0; i < nx; i++) {
-      double fd = (x[0][i] - x[1][i]) / (2 * eps);
-      double an = j < nx ? A[i * nx + j] : B[i * nu + j - nx];
-      scale = fmax(scale, fabs(an));
-      if (j < nx) {
-        worst_a = fmax(worst_a, fabs(an - fd));
-      } else {
-        worst_b = fmax(worst_b, fabs(an - fd));
-      }
-    }
-  }
+  double Afd[64], Bfd[64];
+  ost_fixtureTransitionFD(m, d, 1e-6, Afd, Bfd);
+  worst_a = ost_fixtureMaxDiff(A, Afd, nx * nx, &scale);
+  worst_b = ost_fixtureMaxDiff(B, Bfd, nx * nu, &scale);
   printf("transition (nx = %d): max |A - FD| %.2g, max |B - FD| %.2g, max |entry| %.3g\n", nx,
          worst_a, worst_b, scale);
   // the activation rows are exact: d act+ / d act- = tau / (tau + h) for the filter, 1 for the
@@ -298,7 +245,7 @@ END_TEST
 // L = sum over the rollout's T states of qpos[1] + 0.1 qvel[0], from start (q, v, act)
 static double rolloutLoss(const mjModel* m, mjData* d, const double* start, const double* ctrl,
                           int T, ostTape* tape) {
-  setState(m, d, start, start + m->nv, start + 2 * m->nv, ctrl);
+  ost_fixtureSetState(m, d, start, start + m->nv, start + 2 * m->nv, ctrl);
   if (tape) {
     ost_tapeClear(tape);
   }
@@ -320,7 +267,7 @@ START_TEST(test_tapeControlGradient) {
   mjModel* m = pendulum();
   int nv = m->nv, nu = m->nu, T = 20;
   mjData* d = mj_makeData(m);
-  setProvider(m, d, 0.01, 1);
+  ost_fixtureSetProvider(m, d, 0.01, 1);
   double start[6] = {0.4, -0.7, 0.3, -0.5, 0.2, -0.3};
   double ctrl[60], gctrl[60], gq[42] = {0}, gu[42] = {0};
   for (int k = 0; k < T; k++) {

@@ -155,10 +155,7 @@ START_TEST(test_contactCapacityGrows) {
   mjModel* m = ost_fixtureLoadModel("../tests/models/many_contacts.xml");
   for (int geometry = 0; geometry < 2; geometry++) {
     mjData* d = mj_makeData(m);
-    ostOptions o;
-    ck_assert_int_eq(ost_readOptions(m, &o, NULL, 0), OST_OK);
-    o.geometry = geometry;
-    ck_assert_int_eq(ost_setOptions(m, d, &o), OST_OK);
+    ost_fixtureSetProvider(m, d, m->opt.timestep, geometry);
     for (int k = 0; k < 100; k++) {
       ck_assert_msg(ost_step(m, d) == OST_OK, "step %d: %s", k, ost_lastError(d));
     }

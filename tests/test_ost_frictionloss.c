@@ -42,15 +42,6 @@ static double inertia(const mjModel* m, mjData* d) {
 }
 
 
-static void setProvider(const mjModel* m, mjData* d, double h, int geometry) {
-  ostOptions opt;
-  ck_assert_int_eq(ost_readOptions(m, &opt, NULL, 0), OST_OK);
-  opt.timestep = h;
-  opt.geometry = geometry;
-  ck_assert_int_eq(ost_setOptions(m, d, &opt), OST_OK);
-}
-
-
 // step 1 s at h under torque tau from rest; every step converged
 static void run(const mjModel* m, mjData* d, double h, double tau) {
   mj_resetData(m, d);
@@ -74,7 +65,7 @@ START_TEST(test_jointStickAndSlide) {
   double I = inertia(m, d);
   for (int geometry = 0; geometry < 2; geometry++) {
     for (double h = 1e-3; h < 0.2; h *= 10) {
-      setProvider(m, d, h, geometry);
+      ost_fixtureSetProvider(m, d, h, geometry);
       run(m, d, h, 0.5 * kLoss);
       // the sticking compliance reg k_f (reg = 1e-6, k_f = h / I) lets it creep at
       // reg h tau / I <= 3e-7 rad/s here; 1e-6 rad over 1 s would be a slip of the dry friction
@@ -103,7 +94,7 @@ START_TEST(test_tendonFrictionloss) {
   mjModel* m = rotor(0, 2, kLoss, 0, 0, 0);
   mjData* d = mj_makeData(m);
   double I = inertia(m, d), h = 0.01;
-  setProvider(m, d, h, OST_GEOMETRY_MUJOCO);
+  ost_fixtureSetProvider(m, d, h, OST_GEOMETRY_MUJOCO);
   run(m, d, h, 1.9 * kLoss);
   // the same creep bound as a joint's (the tendon's k_f is 4 h / I, its force 0.95 N)
   ck_assert_double_lt(fabs(d->qpos[0]), 1e-6);
@@ -126,7 +117,7 @@ START_TEST(test_tendonLimitHolds) {
     mjModel* m = rotor(0, coef, 0, 1, flip ? -0.3 : -1, flip ? 1 : 0.3);
     mjData* d = mj_makeData(m);
     double h = 0.02;
-    setProvider(m, d, h, OST_GEOMETRY_MUJOCO);
+    ost_fixtureSetProvider(m, d, h, OST_GEOMETRY_MUJOCO);
     run(m, d, h, 2.0);
     double L = coef * d->qpos[0];
     printf("tendon limit coef %g: L = %.9f, u = %.3g, qfrc_constraint = %.9f\n", coef, L,
@@ -150,7 +141,7 @@ START_TEST(test_frictionlossGradients) {
   mjData* d = mj_makeData(m);
   double I = inertia(m, d), h = 0.01, eps = 1e-6;
   for (int slide = 0; slide < 2; slide++) {
-    setProvider(m, d, h, OST_GEOMETRY_MUJOCO);
+    ost_fixtureSetProvider(m, d, h, OST_GEOMETRY_MUJOCO);
     mj_resetData(m, d);
     double tau = slide ? 1.5 : 0.5, u0 = slide ? 0.3 : 0;
     d->ctrl[0] = tau;

@@ -126,15 +126,6 @@ static mjModel* hinge(const char* extra) {
 }
 
 
-static void setProvider(const mjModel* m, mjData* d, double h, int geometry) {
-  ostOptions opt;
-  ck_assert_int_eq(ost_readOptions(m, &opt, NULL, 0), OST_OK);
-  opt.timestep = h;
-  opt.geometry = geometry;
-  ck_assert_int_eq(ost_setOptions(m, d, &opt), OST_OK);
-}
-
-
 // act+ of the backward-Euler equation by bisection on mju_muscleDynamics (an oracle independent
 // of the closed form): the root of a - act - h act_dot(ctrl, a) between act and clamped ctrl
 static double bisectAct(const double prm[2], double act, double ctrl, double h) {
@@ -166,7 +157,7 @@ START_TEST(test_hingeSteadyState) {
   const double h = 0.01;
   for (int geometry = 0; geometry < 2; geometry++) {
     mjData* d = mj_makeData(m);
-    setProvider(m, d, h, geometry);
+    ost_fixtureSetProvider(m, d, h, geometry);
     double a = 0, worst_act = 0;
     for (int k = 0; k < 400; k++) {
       d->ctrl[0] = k < 100 || k >= 200 ? 1 : 0;
@@ -240,7 +231,7 @@ START_TEST(test_arm26) {
     double h = mult * h0;
     int n = (int)lround(T / h);
     mjData* d = mj_makeData(m);
-    setProvider(m, d, h, OST_GEOMETRY_MUJOCO);
+    ost_fixtureSetProvider(m, d, h, OST_GEOMETRY_MUJOCO);
     double worst = 0;
     t0 = seconds();
     for (int k = 0; k < n; k++) {
@@ -299,18 +290,6 @@ static mjModel* muscleArm(void) {
 }
 
 
-// d's state: qpos, qvel, act and ctrl from the arrays (nv, nv, na, nu), then mj_forward
-static void setState(const mjModel* m, mjData* d, const double* q, const double* v,
-                     const double* a, const double* u) {
-  for (int i = 0; i < m->nq; i++) d->qpos[i] = q[i];
-  for (int i = 0; i < m->nv; i++) d->qvel[i] = v[i];
-  for (int i = 0; i < m->na; i++) d->act[i] = a[i];
-  for (int i = 0; i < m->nu; i++) d->ctrl[i] = u[i];
-  d->time = 0;
-  mj_forward(m, d);
-}
-
-
 // ost_transition's A and B against central differences of ost_step (native provider): one
 // muscle activating (ctrl > act), one deactivating (ctrl < act), at lengths and velocities inside
 // the curves' smooth pieces (the pieces' knots and ctrl = act are kinks)
@@ -320,49 +299,17 @@ START_TEST(test_transitionGradients) {
   int nv = m->nv, na = m->na, nu = m->nu, nx = 2 * nv + na;
   ck_assert_int_eq(na, 2);
   mjData* d = mj_makeData(m);
-  setProvider(m, d, 0.01, OST_GEOMETRY_NATIVE);
+  ost_fixtureSetProvider(m, d, 0.01, OST_GEOMETRY_NATIVE);
   double q0[2] = {0.3, -0.4}, v0[2] = {0.2, -0.3}, a0[2] = {0.2, 0.7}, u0[3] = {0.6, 0.8, 0.3};
-  double A[36], B[18], x[2][6], worst_a = 0, worst_b = 0, scale = 0;
-  setState(m, d, q0, v0, a0, u0);
+  double A[36], B[18], worst_a = 0, worst_b = 0, scale = 0;
+  ost_fixtureSetState(m, d, q0, v0, a0, u0);
   for (int i = 0; i < nx * nx; i++) A[i] = NAN;  // poisoned: every entry must be written
   for (int i = 0; i < nx * nu; i++) B[i] = NAN;
   ck_assert_int_eq(ost_transition(m, d, A, B), OST_OK);
-  const double eps = 1e-6;
-  double qref[2];
-  for (int j = 0; j < nx + nu; j++) {
-    for (int side = 0; side < 2; side++) {
-      double e = side ? -eps : eps, q[2] = {q0[0], q0[1]}, v[2] = {v0[0], v0[1]};
-      double a[2] = {a0[0], a0[1]}, u[3] = {u0[0], u0[1], u0[2]};
-      if (j < nv) {
-        q[j] += e;  // hinges: the tangent is the coordinate
-      } else if (j < 2 * nv) {
-        v[j - nv] += e;
-      } else if (j < nx) {
-        a[j - 2 * nv] += e;
-      } else {
-        u[j - nx] += e;
-      }
-      setState(m, d, q, v, a, u);
-      ck_assert_int_eq(ost_step(m, d), OST_OK);
-      if (side == 0) {
-        qref[0] = d->qpos[0];
-        qref[1] = d->qpos[1];
-      }
-      mj_differentiatePos(m, x[side], 1, qref, d->qpos);
-      for (int i = 0; i < nv; i++) x[side][nv + i] = d->qvel[i];
-      for (int i = 0; i < na; i++) x[side][2 * nv + i] = d->act[i];
-    }
-    for (int i = 0; i < nx; i++) {
-      double fd = (x[0][i] - x[1][i]) / (2 * eps);
-      double an = j < nx ? A[i * nx + j] : B[i * nu + j - nx];
-      scale = fmax(scale, fabs(an));
-      if (j < nx) {
-        worst_a = fmax(worst_a, fabs(an - fd));
-      } else {
-        worst_b = fmax(worst_b, fabs(an - fd));
-      }
-    }
-  }
+  double Afd[36], Bfd[18];
+  ost_fixtureTransitionFD(m, d, 1e-6, Afd, Bfd);
+  worst_a = ost_fixtureMaxDiff(A, Afd, nx * nx, &scale);
+  worst_b = ost_fixtureMaxDiff(B, Bfd, nx * nu, &scale);
   printf("muscle transition (nx = %d): max |A - FD| %.2g, max |B - FD| %.2g, max |entry| %.3g\n",
          nx, worst_a, worst_b, scale);
   // central differences: truncation eps^2 |x'''| ~ 1e-12 and rounding 1e-16 / eps ~ 1e-10 (no

@@ -303,11 +303,7 @@ START_TEST(test_frictionPriority) {
   mjModel* m = ost_fixtureLoadString(xml);
   for (int geometry = 0; geometry < 2; geometry++) {
     mjData* d = mj_makeData(m);
-    ostOptions o;
-    ck_assert_int_eq(ost_readOptions(m, &o, NULL, 0), OST_OK);
-    o.timestep = h;
-    o.geometry = geometry;
-    ck_assert_int_eq(ost_setOptions(m, d, &o), OST_OK);
+    ost_fixtureSetProvider(m, d, h, geometry);
     double v_half = 0;
     for (int k = 0; k < 200; k++) {
       ck_assert_int_eq(ost_step(m, d), OST_OK);
@@ -368,11 +364,7 @@ START_TEST(test_stiffSpringImplicit) {
   mj_forward(m, d);
   double I = d->qM[0], k = 100, h = 0.1;
   for (int geometry = 0; geometry < 2; geometry++) {
-    ostOptions o;
-    ck_assert_int_eq(ost_readOptions(m, &o, NULL, 0), OST_OK);
-    o.timestep = h;
-    o.geometry = geometry;
-    ck_assert_int_eq(ost_setOptions(m, d, &o), OST_OK);
+    ost_fixtureSetProvider(m, d, h, geometry);
     mj_resetData(m, d);
     d->qpos[0] = 0.5;
     double q = 0.5, u = 0;

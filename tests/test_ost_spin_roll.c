@@ -28,11 +28,7 @@ static mjModel* ball(int condim, double slide, double torsion, double roll) {
 
 
 static void setup(const mjModel* m, mjData* d, double h, int geometry) {
-  ostOptions opt;
-  ck_assert_int_eq(ost_readOptions(m, &opt, NULL, 0), OST_OK);
-  opt.timestep = h;
-  opt.geometry = geometry;
-  ck_assert_int_eq(ost_setOptions(m, d, &opt), OST_OK);
+  ost_fixtureSetProvider(m, d, h, geometry);
   mj_resetData(m, d);
 }
 
