@@ -63,8 +63,10 @@ typedef struct ostContext_ {
   int*           servo;           // 1 if actuator i is an implicit servo row     (nu)
   unsigned char* ten_implicit;    // 1 if tendon t's spring and damper are an implicit row this
                                   // substep (mujocoStart decides, ost_rowsMujoco builds) (ntendon)
-  mjtNum*        ten_dt;          // tendon t's J M^-1 J', refreshed every 8th substep (ntendon)
-  int            ten_age;         // substeps since ten_dt was refreshed
+  mjtNum*        ten_dt;          // tendon t's J M^-1 J', refreshed at a cold step and where
+                                  // time / h is a multiple of 8 (mujocoStart)       (ntendon)
+  int            step_cold;       // 1 until the first substep of a step that does not continue
+                                  // the last one has started
   mjtNum*        qpos_prev;       // q- of the current step                        (nq)
   mjtNum*        state_start;     // state at ost_step2 entry     (1 + nq + 2 nv + na)
   mjtNum*        state_end;       // state after the last step    (1 + nq + 2 nv + na)

@@ -480,9 +480,11 @@ static void mujocoStart(ostContext* c, const mjModel* m, mjData* d, mjtNum h, in
   // (ost_rowsMujoco): with d_t = J M^-1 J' (the tendon's inverse effective mass), explicit Euler
   // needs h omega = h sqrt(k d_t) < 2 and h b d_t < 2; past half of either the tendon is a row,
   // and its force at (q-, u-), which mj_passive put into qfrc_smooth, leaves f. d_t moves with
-  // the pose slowly: it is refreshed every 8th substep (a tendon would have to get 4 times
-  // stiffer in between to pass the limit explicitly)
-  int refresh = c->ten_age++ % 8 == 0;
+  // the pose slowly: it is refreshed at a step that does not continue the last one and where
+  // time / h is a multiple of 8 (a tendon would have to get 4 times stiffer in between to pass
+  // the limit explicitly); both are part of the state, so a repeated step decides alike
+  int refresh = c->step_cold || lround(d->time / h) % 8 == 0;
+  c->step_cold = 0;
   for (int t = 0; t < m->ntendon; t++) {
     mjtNum k = m->tendon_stiffness[t], b = m->tendon_damping[t];
     c->ten_implicit[t] = 0;
@@ -632,6 +634,7 @@ static int advance(ostContext* c, mjData* d, mjtNum h, int fresh) {
   // (bitwise), else from zero, so that a step repeated from a restored or perturbed state
   // (finite differences) is reproducible; u starts from u- + h qacc_warmstart
   int warm = continuesLastStep(c, d), substeps, status;
+  c->step_cold = !warm;
   mjtNum worst;
   int bits = osti_stepDriven(&c->world, c->m->nq, d->qpos, c->qpos_prev, d->qvel,
                              d->qacc_warmstart, &warm, &set, &drv, &substeps, &worst, &status);
