@@ -113,6 +113,14 @@ OST_HD void osti_contactKeyOf(ostNum key[3], const ostNum pos[3], const ostNum x
 }
 
 
+// the row of MuJoCo's contact frame (0 normal, 1 and 2 tangents) that friction slot k (1, 2
+// sliding, 3 torsional, 4, 5 rolling) projects on: torsion turns about the normal, the sliding
+// and rolling pairs run along and about the tangents
+OST_HD int osti_slotAxis(int slot) {
+  return slot == 3 ? 0 : (slot == 1 || slot == 4 ? 1 : 2);
+}
+
+
 // the friction rows of a contact from the translational Jacobians j1, j2 and rotational
 // Jacobians r1, r2 (3 x nv each, r1, r2 may be NULL when only the tangents are asked for) of
 // its two bodies: the rows of the slots (1 t1, 2 t2, 3 torsion, 4, 5 rolling; MuJoCo's contact
@@ -127,7 +135,7 @@ OST_HD void osti_frictionJacobian(const ostNum frame[9], const ostNum* j1, const
     int ang = slot[f] >= 3;
     const ostNum* a = ang ? r1 : j1;
     const ostNum* b = ang ? r2 : j2;
-    const ostNum* e = frame + 3 * (slot[f] == 3 ? 0 : (slot[f] == 1 || slot[f] == 4 ? 1 : 2));
+    const ostNum* e = frame + 3 * osti_slotAxis(slot[f]);
     ostNum* Jf = J + (size_t)f * nv;
     for (int j = 0; j < nv; j++) {
       ostNum dx = b[j] - a[j], dy = b[nv + j] - a[nv + j], dz = b[2 * nv + j] - a[2 * nv + j];

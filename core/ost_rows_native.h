@@ -254,19 +254,18 @@ OST_HD int osti_nativeIterate(const ostModel* m, ostKin* k, ostWorld* w, const o
 //   (M + h D + h^2 K) (u+ - u-) = h (f(q-, u-) - h K u-),
 // so Mt gets h^2 k on the joint's dof and f gets -h k u- (f already holds the spring force at
 // q-). A stiff spring then stays stable at any h (MuJoCo's Euler keeps springs explicit).
-// Ball and free joints' springs stay explicit.
-OST_HD void osti_implicitSprings(const ostModel* m, ostWorld* w, const ostNum* qvel, ostNum h) {
-  if (m->disableflags & OST_DSBL_PASSIVE) {
-    return;
-  }
-  int nv = m->s.nv;
-  for (int j = 0; j < m->s.njnt; j++) {
-    int t = m->jnt_type[j];
-    ostNum k = m->jnt_stiffness[j];
+// Ball and free joints' springs stay explicit. The joint arrays (njnt) are the packed model's
+// or MuJoCo's (osttJoint numbers joints as mjtJoint); both providers call this.
+OST_HD void osti_implicitSprings(ostWorld* w, int njnt, const int* jnt_type, const int* jnt_dofadr,
+                                 const ostNum* jnt_stiffness, const ostNum* qvel, ostNum h) {
+  int nv = w->nv;
+  for (int j = 0; j < njnt; j++) {
+    int t = jnt_type[j];
+    ostNum k = jnt_stiffness[j];
     if ((t != OST_JNT_HINGE && t != OST_JNT_SLIDE) || !(k > 0)) {
       continue;
     }
-    int d = m->jnt_dofadr[j];
+    int d = jnt_dofadr[j];
     w->M[(size_t)d * nv + d] += h * h * k;
     w->qfrc_explicit[d] -= h * k * qvel[d];
   }
@@ -306,7 +305,9 @@ OST_HD void osti_nativeStart(const ostModel* m, ostKin* k, ostWorld* w, const os
     w->qfrc_explicit[j] = k->qfrc_passive[j] - k->qfrc_bias[j]
                           + (qfrc_applied ? qfrc_applied[j] : 0);
   }
-  osti_implicitSprings(m, w, qvel, h);
+  if (!(m->disableflags & OST_DSBL_PASSIVE)) {
+    osti_implicitSprings(w, m->s.njnt, m->jnt_type, m->jnt_dofadr, m->jnt_stiffness, qvel, h);
+  }
 
   // explicit actuators: force = gain input + bias clamped to forcerange, times moment, with
   // gain g or a muscle's -F FL FV, bias b0 + b1 L + b2 V or a muscle's -F FP (eq. 8c), all at

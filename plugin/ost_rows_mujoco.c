@@ -97,7 +97,7 @@ static int chainRows(const mjModel* m, const mjtNum frame[9], const mjtNum* j1, 
     mjtNum dx = j2[j] - j1[j], dy = j2[nv + j] - j1[nv + j], dz = j2[2 * nv + j] - j1[2 * nv + j];
     J[j] = frame[0] * dx + frame[1] * dy + frame[2] * dz;
     for (int f = 0; f < nf; f++) {
-      const mjtNum* e = frame + 3 * (slot[f] == 3 ? 0 : (slot[f] == 1 || slot[f] == 4 ? 1 : 2));
+      const mjtNum* e = frame + 3 * osti_slotAxis(slot[f]);
       mjtNum x = dx, y = dy, z = dz;
       if (slot[f] >= 3) {
         x = r2[j] - r1[j];

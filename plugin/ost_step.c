@@ -12,6 +12,7 @@
 
 #include "ost_activation.h"
 #include "ost_internal.h"
+#include "ost_rows_native.h"
 #include "ost_step.h"
 
 // index of the first non-finite entry of x (n), or -1
@@ -533,17 +534,9 @@ static void mujocoStart(ostContext* c, const mjModel* m, mjData* d, mjtNum h, in
   }
   w->dof_parent = m->dof_parentid;
 
-  // hinge and slide springs implicitly, as osti_implicitSprings (core/ost_rows_native.h)
+  // hinge and slide springs implicitly (core/ost_rows_native.h)
   if (!(m->opt.disableflags & mjDSBL_PASSIVE)) {
-    for (int j = 0; j < m->njnt; j++) {
-      int t = m->jnt_type[j];
-      mjtNum k = m->jnt_stiffness[j];
-      if ((t == mjJNT_HINGE || t == mjJNT_SLIDE) && k > 0) {
-        int a = m->jnt_dofadr[j];
-        w->M[(size_t)a * nv + a] += h * h * k;
-        w->qfrc_explicit[a] -= h * k * d->qvel[a];
-      }
-    }
+    osti_implicitSprings(w, m->njnt, m->jnt_type, m->jnt_dofadr, m->jnt_stiffness, d->qvel, h);
   }
 }
 

@@ -351,68 +351,56 @@ START_TEST(test_pendulumClosedForm) {
 END_TEST
 
 
-// a stiff hinge spring (k / I = 1e4, so omega h = 10 at h = 0.1 s, where an explicit spring
-// diverges) follows the backward Euler recurrence I (u+ - u-) = -h k (q- + h u+ - q0) exactly,
-// with both geometry providers: the spring is implicit
-START_TEST(test_stiffSpringImplicit) {
-  ost_fixtureSetup();
-  mjModel* m = ost_fixtureLoadString(
-      "<mujoco><option gravity='0 0 0'/><worldbody><body><joint type='hinge' axis='0 0 1'"
-      " stiffness='100' springref='0'/><geom type='box' size='0.05 0.05 0.05' pos='0.1 0 0'"
-      " mass='1' contype='0' conaffinity='0'/></body></worldbody></mujoco>");
-  mjData* d = mj_makeData(m);
-  mj_forward(m, d);
-  double I = d->qM[0], k = 100, h = 0.1;
-  for (int geometry = 0; geometry < 2; geometry++) {
-    ost_fixtureSetProvider(m, d, h, geometry);
-    mj_resetData(m, d);
-    d->qpos[0] = 0.5;
-    double q = 0.5, u = 0;
-    for (int s = 0; s < 100; s++) {
-      ck_assert_int_eq(ost_step(m, d), OST_OK);
-      u = (I * u - h * k * q) / (I + h * h * k);
-      q += h * u;
-      // the same recurrence: rounding and the solver's tol (1e-10) only
-      ck_assert_double_eq_tol(d->qvel[0], u, 1e-9);
-      ck_assert_double_eq_tol(d->qpos[0], q, 1e-9);
-    }
-    printf("stiff spring k/I = %.3g, h = %g, geometry %d: q after 10 s %.3g (decays)\n", k / I, h,
-           geometry, d->qpos[0]);
+// a rotor on a hinge held by a spring of k = 100 N m/rad (k / I = 8.6e3, so omega h = 9.3 at
+// h = 0.1 s, where an explicit spring diverges), from q = 0.5 at rest, stepped 10 s with the
+// given provider: it must follow the backward Euler recurrence
+// I (u+ - u-) = -h k (q- + h u+ - q0) exactly (rounding and the solver's tol, 1e-10)
+static void checkStiffSpring(const char* xml, int geometry) {
+  mjModel* m = ost_fixtureLoadString(xml);
+  if (m->ntendon) {
+    ck_assert_double_eq(m->tendon_lengthspring[0], 0);  // the recurrence's q0 = 0
   }
-  ost_deleteData(d);
-  mj_deleteModel(m);
-}
-END_TEST
-
-
-// the same stiff spring as a fixed tendon's (stiffness 100 on the hinge, coefficient 1, rest
-// length 0): h^2 k J M^-1 J' = 86 > 1, so the tendon is an implicit row of the step and follows
-// the same backward Euler recurrence (mujoco provider: native has no tendons)
-START_TEST(test_stiffTendonSpringImplicit) {
-  ost_fixtureSetup();
-  mjModel* m = ost_fixtureLoadString(
-      "<mujoco><option gravity='0 0 0'/><worldbody><body><joint name='j' type='hinge'"
-      " axis='0 0 1'/><geom type='box' size='0.05 0.05 0.05' pos='0.1 0 0' mass='1'"
-      " contype='0' conaffinity='0'/></body></worldbody><tendon><fixed stiffness='100'>"
-      "<joint joint='j' coef='1'/></fixed></tendon></mujoco>");
   mjData* d = mj_makeData(m);
   mj_forward(m, d);
-  double I = d->qM[0], k = 100, h = 0.1;
-  ck_assert_double_eq(m->tendon_lengthspring[0], 0);
-  ost_fixtureSetTimestep(m, d, h);
+  double I = d->qM[0], k = 100, h = 0.1, q = 0.5, u = 0;
+  ost_fixtureSetProvider(m, d, h, geometry);
   mj_resetData(m, d);
-  d->qpos[0] = 0.5;
-  double q = 0.5, u = 0;
+  d->qpos[0] = q;
   for (int s = 0; s < 100; s++) {
     ck_assert_int_eq(ost_step(m, d), OST_OK);
     u = (I * u - h * k * q) / (I + h * h * k);
     q += h * u;
-    // the same recurrence: rounding and the solver's tol (1e-10) only
     ck_assert_double_eq_tol(d->qvel[0], u, 1e-9);
     ck_assert_double_eq_tol(d->qpos[0], q, 1e-9);
   }
   ost_deleteData(d);
   mj_deleteModel(m);
+}
+
+
+// the spring as the hinge's stiffness, with both geometry providers: hinge springs are implicit
+START_TEST(test_stiffSpringImplicit) {
+  ost_fixtureSetup();
+  for (int geometry = 0; geometry < 2; geometry++) {
+    checkStiffSpring(
+        "<mujoco><option gravity='0 0 0'/><worldbody><body><joint type='hinge' axis='0 0 1'"
+        " stiffness='100' springref='0'/><geom type='box' size='0.05 0.05 0.05' pos='0.1 0 0'"
+        " mass='1' contype='0' conaffinity='0'/></body></worldbody></mujoco>", geometry);
+  }
+}
+END_TEST
+
+
+// the spring as a fixed tendon's (coefficient 1, rest length 0 at qpos0):
+// h^2 k J M^-1 J' = 86 > 1, so the tendon is an implicit row of the step (mujoco provider:
+// native has no tendons)
+START_TEST(test_stiffTendonSpringImplicit) {
+  ost_fixtureSetup();
+  checkStiffSpring(
+      "<mujoco><option gravity='0 0 0'/><worldbody><body><joint name='j' type='hinge'"
+      " axis='0 0 1'/><geom type='box' size='0.05 0.05 0.05' pos='0.1 0 0' mass='1'"
+      " contype='0' conaffinity='0'/></body></worldbody><tendon><fixed stiffness='100'>"
+      "<joint joint='j' coef='1'/></fixed></tendon></mujoco>", OST_GEOMETRY_MUJOCO);
 }
 END_TEST
 
