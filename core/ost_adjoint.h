@@ -343,33 +343,46 @@ OST_HD void osti_tangentLinear(const ostModel* m, ostNum* dq, const ostNum* qpos
 }
 
 
-// R (nv + nrow) of the step at (u, lambda), see the file comment. The world holds the step's
-// start (w->M = Mt unfactored, w->qfrc_explicit = f, w->qvel_prev = u-, w->h) and the rows and
-// J at q+ = q- (+) h u. Factors w->M in place and uses w->tmp, w->diag, w->Ju.
-OST_HD void osti_stepResidual(ostWorld* w, const ostNum* u, const ostNum* lambda, ostNum reg,
-                              ostNum creep, ostNum fb_eps, ostNum* R) {
-  int nv = w->nv, nrow = w->nrow;
-  ostNum h = w->h;
+// The residual R (nv + nrow) of the step at (u, lambda), see the file comment, in three parts,
+// so that the adjoint's passes that vary (u, lambda) alone reuse the factor and the diagonal.
+// The world holds the step's start (w->qfrc_explicit = f, w->qvel_prev = u-, w->h) and the rows
+// and J at q+ = q- (+) h u.
 
-  // dynamics: Mt (u - u-) - h (f + J' lambda)
+// the dynamics rows R (nv): Mt (u - u-) - h (f + J' lambda), Mt unfactored (nv x nv, dense);
+// uses w->tmp
+OST_HD void osti_residualDynamics(ostWorld* w, const ostNum* Mt, const ostNum* u,
+                                  const ostNum* lambda, ostNum* R) {
+  int nv = w->nv;
   ostNum* t = w->tmp;
   for (int j = 0; j < nv; j++) {
     t[j] = u[j] - w->qvel_prev[j];
   }
-  ostu_mulMatVec(R, w->M, t, nv, nv);
-  ostu_mulMatTVec(t, w->J, lambda, nrow, nv);
+  ostu_mulMatVec(R, Mt, t, nv, nv);
+  ostu_mulMatTVec(t, w->J, lambda, w->nrow, nv);
   for (int j = 0; j < nv; j++) {
-    R[j] -= h * (w->qfrc_explicit[j] + t[j]);
+    R[j] -= w->h * (w->qfrc_explicit[j] + t[j]);
   }
+}
 
-  // Jacobi diagonal J_i Mt^-1 J_i' (the effective-mass scales of the rows) and J_i u
+
+// the Jacobi diagonal J_i Mt^-1 J_i' (the effective-mass scales of the rows) into w->diag,
+// factoring w->M (Mt) in place
+OST_HD void osti_residualPrepare(ostWorld* w) {
   osti_factorMass(w);
-  for (int i = 0; i < nrow; i++) {
+  for (int i = 0; i < w->nrow; i++) {
     osti_rowDiag(w, i);
+  }
+}
+
+
+// the constraint rows r (nrow) after osti_residualPrepare; fills w->Ju
+OST_HD void osti_residualRows(ostWorld* w, const ostNum* u, const ostNum* lambda, ostNum reg,
+                              ostNum creep, ostNum fb_eps, ostNum* r) {
+  int nv = w->nv, nrow = w->nrow;
+  ostNum h = w->h;
+  for (int i = 0; i < nrow; i++) {
     w->Ju[i] = ostu_dot(w->J + (size_t)i * nv, u, nv);
   }
-
-  ostNum* r = R + nv;
   for (int i = 0; i < nrow; i++) {
     const ostRow* row = w->rows + i;
     ostNum lam = lambda[i];
@@ -430,6 +443,15 @@ OST_HD void osti_stepResidual(ostWorld* w, const ostNum* u, const ostNum* lambda
       break;
     }
   }
+}
+
+
+// the whole residual R (nv + nrow) at (u, lambda); factors w->M in place
+OST_HD void osti_stepResidual(ostWorld* w, const ostNum* u, const ostNum* lambda, ostNum reg,
+                              ostNum creep, ostNum fb_eps, ostNum* R) {
+  osti_residualDynamics(w, w->M, u, lambda, R);
+  osti_residualPrepare(w);
+  osti_residualRows(w, u, lambda, reg, creep, fb_eps, R + w->nv);
 }
 
 

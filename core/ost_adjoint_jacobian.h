@@ -27,10 +27,13 @@
 
 typedef struct ostJacWork_ {      // the dual evaluation's state: pointers into one block
   ostModel* m;                    // dual model (parameters seeded here when nparam > 0)
-  ostKin    k;                    // dual kinematics
+  ostKin    k;                    // dual kinematics (at q+)
+  ostKin    km;                   // dual kinematics at q- (ostx_jacColumnsSplit)
   ostWorld  w;                    // dual world: rows, J, Mt, f at the step
   ostNum *qpos, *qplus, *qref, *dqm, *dqp, *u, *uprev, *ctrl, *qfrc, *xfrc, *lambda, *R;
   ostNum *act, *act_next, *input; // act- (na), act+ (na), actuator inputs (nu): ost_activation.h
+  ostNum *M0, *f0;                // the step's Mt (unfactored, nv x nv) and f (nv) at the values
+  double *Rq, *T;                 // dR/dq+ ((nv + nrow_max) x nv) and d(dq+)/d(u, dq-) (nv x 2 nv)
   ostRow*   rec;                  // the recorded rows as dual rows (matching keys)
   ostNum*   rec_lambda;           // their multipliers
   unsigned char* used;            // matching scratch
@@ -38,17 +41,24 @@ typedef struct ostJacWork_ {      // the dual evaluation's state: pointers into 
 } ostJacWork;
 
 // dual vectors of the work: 3 nq + 6 nv + nu + 6 nbody + 2 nrow_max + nv + nrow_max, then
-// 2 na + nu for the activations
+// 2 na + nu for the activations, nv^2 + nv for Mt and f
 OST_HD size_t ostx_jacVectors(ostSizes s, int nrow_max) {
   return 3 * (size_t)s.nq + 7 * (size_t)s.nv + s.nu + 6 * (size_t)s.nbody + 3 * (size_t)nrow_max
-         + 2 * (size_t)s.na + s.nu;
+         + 2 * (size_t)s.na + s.nu + (size_t)s.nv * s.nv + s.nv;
+}
+
+
+// doubles of the work: dR/dq+ and d(dq+)/d(u, dq-)
+OST_HD size_t ostx_jacDoubles(ostSizes s, int nrow_max) {
+  return ((size_t)s.nv + nrow_max) * s.nv + 2 * (size_t)s.nv * s.nv;
 }
 
 
 // bytes of a work block for sizes s and row capacity nrow_max (each part 64-byte aligned)
 OST_HD size_t ostx_jacWorkSize(ostSizes s, int nrow_max) {
-  return ostu_kinSize(s) + ostu_worldSizeFor(s.nv, s.nv, nrow_max, 0)
+  return 2 * ostu_kinSize(s) + ostu_worldSizeFor(s.nv, s.nv, nrow_max, 0)
          + OST_ALIGN64(ostx_jacVectors(s, nrow_max) * sizeof(ostNum))
+         + OST_ALIGN64(ostx_jacDoubles(s, nrow_max) * sizeof(double))
          + OST_ALIGN64((size_t)nrow_max * sizeof(ostRow)) + OST_ALIGN64((size_t)nrow_max);
 }
 
@@ -62,10 +72,15 @@ OST_HD void ostx_jacWorkInit(ostJacWork* wk, void* block, ostModel* m, int nrow_
   wk->nrow_max = nrow_max;
   ostu_kinInit(&wk->k, p, s);
   p += ostu_kinSize(s);
+  ostu_kinInit(&wk->km, p, s);
+  p += ostu_kinSize(s);
   ostu_worldInitFor(&wk->w, p, s.nv, s.nv, nrow_max, 0, 0);  // residual only: no solver arrays
   p += ostu_worldSizeFor(s.nv, s.nv, nrow_max, 0);
   ostNum* v = (ostNum*)p;
   p += OST_ALIGN64(ostx_jacVectors(s, nrow_max) * sizeof(ostNum));
+  wk->Rq = (double*)p;
+  wk->T = wk->Rq + ((size_t)s.nv + nrow_max) * s.nv;
+  p += OST_ALIGN64(ostx_jacDoubles(s, nrow_max) * sizeof(double));
   wk->rec = (ostRow*)p;
   p += OST_ALIGN64((size_t)nrow_max * sizeof(ostRow));
   wk->used = (unsigned char*)p;
@@ -84,7 +99,9 @@ OST_HD void ostx_jacWorkInit(ostJacWork* wk, void* block, ostModel* m, int nrow_
   wk->rec_lambda = v; v += nrow_max;
   wk->act = v;    v += s.na;
   wk->act_next = v; v += s.na;
-  wk->input = v;
+  wk->input = v;  v += s.nu;
+  wk->M0 = v;     v += (size_t)s.nv * s.nv;
+  wk->f0 = v;
 }
 
 
@@ -127,12 +144,11 @@ OST_HD void ostx_seedParam(ostModel* m, const ostdStep* st, int p, int k) {
 }
 
 
-// one evaluation of R and O at the step's values with the columns [col0, col0 + OSTX_CHUNK)
-// seeded (col0 < 0: no seeds). ny = nv + nrow of the native rows (known after the first call);
-// lam: the multipliers matched onto them (NULL: the values wk->lambda already holds).
-// Returns OST_ROWS_* or -1 if the rows differ from the first evaluation's.
-OST_HD int ostx_jacEvaluate(ostJacWork* wk, const ostdStep* st, int col0, int ny,
-                            int nrow_expect, const double* lam) {
+// the step's values into the work, no derivatives: q-, act-, dq- = 0, u, u-, qfrc, ctrl,
+// xfrc, and the first nrow_expect multipliers (lam, or the values the work holds); the
+// parameters' seeds cleared when the step has parameter columns (a batch's lanes share one dual
+// model and never seed it, so it is only written where parameters are seeded)
+OST_HD void ostx_jacLoad(ostJacWork* wk, const ostdStep* st, int nrow_expect, const double* lam) {
   ostModel* m = wk->m;
   int nq = m->s.nq, nv = m->s.nv, nu = m->s.nu, na = m->s.na;
   for (int i = 0; i < nq; i++) wk->qpos[i] = st->qpos_prev[i];
@@ -151,6 +167,19 @@ OST_HD int ostx_jacEvaluate(ostJacWork* wk, const ostdStep* st, int col0, int ny
   if (st->nparam > 0) {
     ostx_clearParamSeeds(m);
   }
+}
+
+
+// one evaluation of R and O at the step's values with the columns [col0, col0 + OSTX_CHUNK)
+// seeded (col0 < 0: no seeds). ny = nv + nrow of the native rows (known after the first call);
+// lam: the multipliers matched onto them (NULL: the values wk->lambda already holds).
+// Returns OST_ROWS_* or -1 if the rows differ from the first evaluation's.
+OST_HD int ostx_jacEvaluate(ostJacWork* wk, const ostdStep* st, int col0, int ny,
+                            int nrow_expect, const double* lam) {
+  ostModel* m = wk->m;
+  int nq = m->s.nq, nv = m->s.nv, nu = m->s.nu, na = m->s.na;
+  ostx_jacLoad(wk, st, nrow_expect, lam);
+  (void)nu;
 
   // seeds: column c is direction c - col0
   for (int k = 0; col0 >= 0 && k < OSTX_CHUNK; k++) {
@@ -236,6 +265,9 @@ OST_HD int ostx_jacColumns(ostJacWork* wk, const ostdStep* st, const double* lam
   int nv = wk->m->s.nv, na = wk->m->s.na;
   for (int col0 = c0; col0 < ncol; col0 += cstep) {
     if (ostx_jacEvaluate(wk, st, col0, ny, ny - nv, lam)) {
+      if (st->nparam > 0) {
+        ostx_clearParamSeeds(wk->m);
+      }
       return 2;
     }
     for (int k = 0; k < OSTX_CHUNK && col0 + k < ncol; k++) {
@@ -252,6 +284,203 @@ OST_HD int ostx_jacColumns(ostJacWork* wk, const ostdStep* st, const double* lam
       for (int i = 0; i < ny; i++) *r2 += wk->R[i].v * wk->R[i].v;
     }
   }
+  if (st->nparam > 0) {
+    ostx_clearParamSeeds(wk->m);  // the model leaves without seeds, whatever the next step asks
+  }
+  return 0;
+}
+
+
+// The fast path to ostx_jacColumns' G (which stays its oracle): each input column is
+// evaluated through the part of the step that it moves, and its path through
+// q+ = (q- (+) dq-) (+) h u by the chain rule, d/dc = d/dc|q+ held + (dR/dq+) T_c with
+// T = d(dq+)/d(u, dq-), dq+ the tangent of q+ (osti_tangentLinear). Passes of OSTX_CHUNK
+// columns each, in this order (each leaves what the next reads):
+//   y = (u, lambda)  the residual alone, on the step's factor and row diagonal (cheap)
+//   u-               the start's velocity part (f) and the dynamics rows
+//   act-, ctrl       the inputs (act+), f and the servo rows' fields
+//   dq-              the start at q- (+) dq- (Mt, f, the row diagonal), q+ held
+//   theta            the whole evaluation, q+ held
+//   dR/dq+           kinematics, collision and rows at q+ (+) delta: nv directions, the only
+//                    passes through collision
+//   T                the exponential maps alone
+// Same inputs and result as ostx_jacColumns with c0 = 0, cstep = OSTX_CHUNK, on a work that
+// ran the structure pass (the columns differ from the oracle's by rounding only).
+OST_HD int ostx_jacColumnsSplit(ostJacWork* wk, const ostdStep* st, const double* lam, int ny,
+                                double* G, int ncol, double* r2) {
+  ostModel* m = wk->m;
+  ostWorld* w = &wk->w;
+  int nq = m->s.nq, nv = m->s.nv, nu = m->s.nu, na = m->s.na, nrow = ny - nv;
+  int np = st->nparam, nx = 2 * nv + na;
+  ostNum h = st->h;
+  const int C = OSTX_CHUNK;
+
+  // the values: start at q-, rows at q+, the residual (factor and diagonal kept)
+  ostx_jacLoad(wk, st, nrow, lam);
+  osti_actuation(m, wk->ctrl, wk->act, h, wk->act_next, wk->input);
+  osti_integratePos(m, wk->qpos, wk->dqm, 1);
+  osti_nativeStart(m, &wk->km, w, wk->qpos, wk->uprev, wk->input, wk->qfrc, wk->xfrc, h);
+  for (int i = 0; i < nv * nv; i++) wk->M0[i] = w->M[i];
+  for (int i = 0; i < nv; i++) wk->f0[i] = w->qfrc_explicit[i];
+  for (int i = 0; i < nq; i++) wk->qplus[i] = wk->qpos[i];
+  osti_integratePos(m, wk->qplus, wk->u, h);
+  for (int i = 0; i < nq; i++) wk->qref[i] = (double)wk->qplus[i];
+  if (osti_nativeIterate(m, &wk->k, w, wk->qplus, wk->input, st->lookahead, h)
+      || w->nrow != nrow) {
+    return 2;
+  }
+  for (int i = 0; i < nv; i++) w->qvel_prev[i] = wk->uprev[i];
+  w->h = h;
+  osti_stepResidual(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R);
+  if (r2) {
+    *r2 = 0;
+    for (int i = 0; i < ny; i++) *r2 += wk->R[i].v * wk->R[i].v;
+  }
+  for (size_t i = 0; i < (size_t)(ny + nx) * ncol; i++) G[i] = 0;
+
+#define OSTX_COLUMN(c, k) for (int i_ = 0; i_ < ny; i_++) G[(size_t)i_ * ncol + (c)] = wk->R[i_].d[k]
+
+  // y = (u, lambda), the residual alone
+  for (int c0 = 0; c0 < ny; c0 += C) {
+    for (int k = 0; k < C && c0 + k < ny; k++) {
+      int c = c0 + k;
+      if (c < nv) wk->u[c].d[k] = 1; else wk->lambda[c - nv].d[k] = 1;
+    }
+    osti_residualDynamics(w, wk->M0, wk->u, wk->lambda, wk->R);
+    osti_residualRows(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R + nv);
+    for (int k = 0; k < C && c0 + k < ny; k++) {
+      int c = c0 + k;
+      OSTX_COLUMN(c, k);
+      if (c < nv) wk->u[c] = (double)wk->u[c]; else wk->lambda[c - nv] = (double)wk->lambda[c - nv];
+    }
+  }
+
+  // u-: f and the dynamics rows (the constraint rows do not read u-)
+  for (int c0 = 0; c0 < nv; c0 += C) {
+    for (int k = 0; k < C && c0 + k < nv; k++) wk->uprev[c0 + k].d[k] = 1;
+    for (int i = 0; i < nv; i++) w->qvel_prev[i] = wk->uprev[i];
+    osti_nativeStartVel(m, &wk->km, w, wk->qpos, wk->uprev, wk->input, wk->qfrc, wk->xfrc, h);
+    osti_residualDynamics(w, wk->M0, wk->u, wk->lambda, wk->R);
+    for (int k = 0; k < C && c0 + k < nv; k++) {
+      int c = c0 + k;
+      for (int i = 0; i < nv; i++) G[(size_t)i * ncol + ny + nv + c] = wk->R[i].d[k];
+      wk->uprev[c] = (double)wk->uprev[c];
+    }
+  }
+  for (int i = 0; i < nv; i++) w->qvel_prev[i] = wk->uprev[i];
+
+  // act- and ctrl: act+, the inputs, f and the servo rows
+  for (int c0 = 0; c0 < na + nu; c0 += C) {
+    for (int k = 0; k < C && c0 + k < na + nu; k++) {
+      int c = c0 + k;
+      if (c < na) wk->act[c].d[k] = 1; else wk->ctrl[c - na].d[k] = 1;
+    }
+    osti_actuation(m, wk->ctrl, wk->act, h, wk->act_next, wk->input);
+    osti_nativeStartVel(m, &wk->km, w, wk->qpos, wk->uprev, wk->input, wk->qfrc, wk->xfrc, h);
+    osti_nativeServoRows(m, &wk->k, w, wk->input, h);
+    osti_residualDynamics(w, wk->M0, wk->u, wk->lambda, wk->R);
+    osti_residualRows(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R + nv);
+    for (int k = 0; k < C && c0 + k < na + nu; k++) {
+      int c = c0 + k;
+      OSTX_COLUMN(ny + 2 * nv + c, k);
+      for (int i = 0; i < na; i++) {
+        G[(size_t)(ny + 2 * nv + i) * ncol + ny + 2 * nv + c] = wk->act_next[i].d[k];
+      }
+      if (c < na) wk->act[c] = (double)wk->act[c]; else wk->ctrl[c - na] = (double)wk->ctrl[c - na];
+    }
+  }
+  osti_actuation(m, wk->ctrl, wk->act, h, wk->act_next, wk->input);
+  osti_nativeServoRows(m, &wk->k, w, wk->input, h);
+
+  // dq-: the start at q- (+) dq- with q+ held; Mt moves the factor and the row diagonal
+  for (int c0 = 0; c0 < nv; c0 += C) {
+    for (int i = 0; i < nq; i++) wk->qpos[i] = st->qpos_prev[i];
+    for (int k = 0; k < C && c0 + k < nv; k++) wk->dqm[c0 + k].d[k] = 1;
+    osti_integratePos(m, wk->qpos, wk->dqm, 1);
+    osti_nativeStart(m, &wk->km, w, wk->qpos, wk->uprev, wk->input, wk->qfrc, wk->xfrc, h);
+    osti_stepResidual(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R);
+    for (int k = 0; k < C && c0 + k < nv; k++) {
+      OSTX_COLUMN(ny + c0 + k, k);
+      wk->dqm[c0 + k] = 0;
+    }
+  }
+
+  // theta: everything, q+ held
+  for (int c0 = 0; c0 < np; c0 += C) {
+    ostx_clearParamSeeds(m);
+    for (int k = 0; k < C && c0 + k < np; k++) ostx_seedParam(m, st, c0 + k, k);
+    for (int i = 0; i < nq; i++) wk->qpos[i] = st->qpos_prev[i];
+    osti_integratePos(m, wk->qpos, wk->dqm, 1);
+    osti_nativeStart(m, &wk->km, w, wk->qpos, wk->uprev, wk->input, wk->qfrc, wk->xfrc, h);
+    for (int i = 0; i < nq; i++) wk->qplus[i] = wk->qref[i];
+    if (osti_nativeIterate(m, &wk->k, w, wk->qplus, wk->input, st->lookahead, h)
+        || w->nrow != nrow) {
+      ostx_clearParamSeeds(m);
+      return 2;
+    }
+    if (st->truncate) {  // contact J held: its derivative by the friction scale dropped, as the oracle
+      osti_tangentLinear(m, wk->dqp, wk->qplus, wk->qref);
+      osti_truncateContacts(w, wk->dqp);
+    }
+    osti_stepResidual(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R);
+    for (int k = 0; k < C && c0 + k < np; k++) OSTX_COLUMN(ny + nx + nu + c0 + k, k);
+  }
+  if (np > 0) {
+    ostx_clearParamSeeds(m);
+  }
+
+  // dR/dq+: the rows at q+ (+) delta (delta in dq-'s storage), the start held
+  for (int c0 = 0; c0 < nv; c0 += C) {
+    for (int i = 0; i < nq; i++) wk->qplus[i] = wk->qref[i];
+    for (int k = 0; k < C && c0 + k < nv; k++) wk->dqm[c0 + k].d[k] = 1;
+    osti_integratePos(m, wk->qplus, wk->dqm, 1);
+    if (osti_nativeIterate(m, &wk->k, w, wk->qplus, wk->input, st->lookahead, h)
+        || w->nrow != nrow) {
+      return 2;
+    }
+    if (st->truncate) {
+      osti_tangentLinear(m, wk->dqp, wk->qplus, wk->qref);
+      osti_truncateContacts(w, wk->dqp);
+    }
+    for (int i = 0; i < nv * nv; i++) w->M[i] = wk->M0[i];
+    for (int i = 0; i < nv; i++) w->qfrc_explicit[i] = wk->f0[i];
+    osti_stepResidual(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R);
+    for (int k = 0; k < C && c0 + k < nv; k++) {
+      for (int i = 0; i < ny; i++) wk->Rq[(size_t)i * nv + c0 + k] = wk->R[i].d[k];
+      wk->dqm[c0 + k] = 0;
+    }
+  }
+
+  // T = d(dq+)/d(u, dq-): the exponential maps alone
+  for (int c0 = 0; c0 < 2 * nv; c0 += C) {
+    for (int k = 0; k < C && c0 + k < 2 * nv; k++) {
+      int c = c0 + k;
+      if (c < nv) wk->u[c].d[k] = 1; else wk->dqm[c - nv].d[k] = 1;
+    }
+    for (int i = 0; i < nq; i++) wk->qplus[i] = st->qpos_prev[i];
+    osti_integratePos(m, wk->qplus, wk->dqm, 1);
+    osti_integratePos(m, wk->qplus, wk->u, h);
+    osti_tangentLinear(m, wk->dqp, wk->qplus, wk->qref);
+    for (int k = 0; k < C && c0 + k < 2 * nv; k++) {
+      int c = c0 + k;
+      for (int i = 0; i < nv; i++) wk->T[(size_t)i * 2 * nv + c] = wk->dqp[i].d[k];
+      if (c < nv) wk->u[c] = (double)wk->u[c]; else wk->dqm[c - nv] = 0;
+    }
+  }
+#undef OSTX_COLUMN
+
+  // the chain rule through q+ for u and dq-, and the outputs dq+ = T (u, dq-), u+ = u
+  for (int c = 0; c < 2 * nv; c++) {
+    int col = c < nv ? c : ny + c - nv;
+    for (int i = 0; i < ny; i++) {
+      const double* rq = wk->Rq + (size_t)i * nv;
+      double s = 0;
+      for (int j = 0; j < nv; j++) s += rq[j] * wk->T[(size_t)j * 2 * nv + c];
+      G[(size_t)i * ncol + col] += s;
+    }
+    for (int i = 0; i < nv; i++) G[(size_t)(ny + i) * ncol + col] = wk->T[(size_t)i * 2 * nv + c];
+  }
+  for (int i = 0; i < nv; i++) G[(size_t)(ny + nv + i) * ncol + i] = 1;
   return 0;
 }
 
@@ -260,10 +489,11 @@ OST_HD int ostx_jacColumns(ostJacWork* wk, const ostdStep* st, const double* lam
 // chunk; n = nv + the count of the rows at q+. G ((n + 2 nv + na) x ncol, row-major, ncol = n +
 // 2 nv + na + nu + nparam) receives the rows R (n) then O = (dq+, u+, act+) (2 nv + na),
 // differentiated by the columns y = (u, lambda) (n) then xi = (dq-, u-, act-, ctrl, theta).
-// *resid gets |R| at the solution. Returns 0, 1 if G needs more than G_cap doubles (*n still
-// set), 2 if the rows overflow or differ between evaluations.
+// *resid gets |R| at the solution. dense: every column through the whole evaluation (the
+// oracle, ostx_jacColumns), else ostx_jacColumnsSplit. Returns 0, 1 if G needs more than G_cap
+// doubles (*n still set), 2 if the rows overflow or differ between evaluations.
 OST_HD int ostx_stepJacobian(ostJacWork* wk, const ostdStep* st, double* G, size_t G_cap,
-                             int* n_out, double* resid) {
+                             int* n_out, double* resid, int dense) {
   int nx = 2 * wk->m->s.nv + wk->m->s.na, nu = wk->m->s.nu, ny;
   if (ostx_jacStructure(wk, st, NULL, &ny)) {
     return 2;
@@ -274,7 +504,8 @@ OST_HD int ostx_stepJacobian(ostJacWork* wk, const ostdStep* st, double* G, size
     return 1;
   }
   double r2 = 0;
-  if (ostx_jacColumns(wk, st, NULL, ny, 0, OSTX_CHUNK, G, ncol, &r2)) {
+  if (dense ? ostx_jacColumns(wk, st, NULL, ny, 0, OSTX_CHUNK, G, ncol, &r2)
+            : ostx_jacColumnsSplit(wk, st, NULL, ny, G, ncol, &r2)) {
     return 2;
   }
   *resid = sqrt(r2);
@@ -318,15 +549,15 @@ OST_HD void ostx_recordStructure(ostModel* m, const ostAdjointLayout* A, char* l
 }
 
 
-// 3b: the column chunks t, t + njac, .. of the record's Jacobian into the lane's G, in the dual
-// work block `work` (NULL: the lane's own); the njac threads of a lane need blocks of their
-// own and fill disjoint columns. OST_STEP_OVERFLOW if the rows differ from the structure pass's.
+// 3b: the record's Jacobian into the lane's G by the split passes (ostx_jacColumnsSplit) in the
+// dual work block `work` (NULL: the lane's own); one thread per lane (A->njac = 1: the passes
+// share their base evaluation). OST_STEP_OVERFLOW if the rows differ from the structure pass's.
 OST_HD void ostx_recordColumns(ostModel* m, const ostAdjointLayout* A, char* lanes, int l, int t,
                                int j, const ostAdjointSettings* as, char* work) {
   ostAdjointLane al;
   ostu_adjointLane(&al, A, lanes, l);
   int ny = al.info[OST_ADJ_NY];
-  if (ny == 0) {
+  if (ny == 0 || t != 0) {
     return;
   }
   ostStepRec r;
@@ -335,8 +566,7 @@ OST_HD void ostx_recordColumns(ostModel* m, const ostAdjointLayout* A, char* lan
   ostJacWork jw;
   ostx_jacWorkInit(&jw, work ? work : al.jac, m, A->nrow_max);
   int ncol = ny + 2 * A->s.nv + A->s.na + A->s.nu;
-  if (ostx_jacColumns(&jw, &st, al.lam, ny, t * OSTX_CHUNK, A->njac * OSTX_CHUNK, al.G, ncol,
-                      NULL)) {
+  if (ostx_jacColumnsSplit(&jw, &st, al.lam, ny, al.G, ncol, NULL)) {
     al.info[OST_ADJ_FAILED] = OST_STEP_OVERFLOW;
   }
 }

@@ -7,8 +7,8 @@
 //   2 osti_adjointReplay   replay segment k from its checkpoint, recording each committed
 //                          substep (state, controls, rows, multipliers)
 //   3 on record j from the end of the segment: ostx_recordStructure and ostx_recordColumns
-//                          (ost_adjoint_jacobian.h, dual build; the columns may be spread
-//                          over A->njac threads) give the step's exact Jacobian, and
+//                          (ost_adjoint_jacobian.h, dual build, one thread per lane) give
+//                          the step's exact Jacobian, and
 //                          osti_recordSolve the implicit function theorem
 //   4 osti_adjointFinish   the cotangents of the start state; NaN for a failed world
 // Phase 2 and 3 run for k = nseg - 1 .. 0. The replay takes the forward pass's exact steps (same

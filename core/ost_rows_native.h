@@ -103,6 +103,28 @@ OST_HD ostNum osti_ctrl(const ostModel* m, const ostNum* ctrl, int i) {
 }
 
 
+// the servo row of actuator i (its fields, not its Jacobian, the moment) with the actuators'
+// inputs ctrl and the transmission at the row's configuration in k
+OST_HD void osti_nativeServoRow(const ostModel* m, const ostKin* k, ostRow* r, int i,
+                                const ostNum* ctrl, ostNum h) {
+  osti_servoRow(r, i, m->actuator_gainprm[i], m->actuator_biasprm + 3 * i, osti_ctrl(m, ctrl, i),
+                k->actuator_length[i], h, m->actuator_forcelimited[i],
+                m->actuator_forcerange + 2 * i);
+}
+
+
+// the servo rows of w (built by osti_nativeRows with k's transmission) again for new inputs
+// ctrl: only their fields move, J (the moment) does not depend on the inputs
+OST_HD void osti_nativeServoRows(const ostModel* m, const ostKin* k, ostWorld* w,
+                                 const ostNum* ctrl, ostNum h) {
+  for (int n = 0; n < w->nrow; n++) {
+    if (w->rows[n].type == OST_ROW_SERVO) {
+      osti_nativeServoRow(m, k, w->rows + n, w->rows[n].obj[0], ctrl, h);
+    }
+  }
+}
+
+
 // the rows at configuration qpos (osti_kinematics, osti_comPos, osti_transmission ran at qpos):
 // joint limits within their margin, dof dry friction, contacts from osti_collision, implicit
 // servo rows.
@@ -221,9 +243,7 @@ OST_HD int osti_nativeRows(const ostModel* m, ostKin* k, ostWorld* w, const ostN
       if (n + 1 > w->nrow_max) {
         return OST_ROWS_ROW_OVERFLOW;
       }
-      osti_servoRow(w->rows + n, i, m->actuator_gainprm[i], m->actuator_biasprm + 3 * i,
-                    osti_ctrl(m, ctrl, i), k->actuator_length[i], h,
-                    m->actuator_forcelimited[i], m->actuator_forcerange + 2 * i);
+      osti_nativeServoRow(m, k, w->rows + n, i, ctrl, h);
       ostNum* J = osti_rowScratch(w, n);
       for (int c = 0; c < nv; c++) {
         J[c] = k->actuator_moment[(size_t)i * nv + c];
@@ -252,13 +272,14 @@ OST_HD int osti_nativeIterate(const ostModel* m, ostKin* k, ostWorld* w, const o
 // the springs of hinge and slide joints taken implicitly (backward Euler in q): with
 // q+ = q- + h u+, M (u+ - u-) = h (f(q-, u-) - h k u+) becomes
 //   (M + h D + h^2 K) (u+ - u-) = h (f(q-, u-) - h K u-),
-// so Mt gets h^2 k on the joint's dof and f gets -h k u- (f already holds the spring force at
-// q-). A stiff spring then stays stable at any h (MuJoCo's Euler keeps springs explicit).
-// Ball and free joints' springs stay explicit. The joint arrays (njnt) are the packed model's
-// or MuJoCo's (osttJoint numbers joints as mjtJoint); both providers call this.
-OST_HD void osti_implicitSprings(ostWorld* w, int njnt, const int* jnt_type, const int* jnt_dofadr,
-                                 const ostNum* jnt_stiffness, const ostNum* qvel, ostNum h) {
-  int nv = w->nv;
+// so Mt (nv x nv, or NULL) gets h^2 k on the joint's dof and f (nv, or NULL) gets -h k u- (f
+// already holds the spring force at q-). A stiff spring then stays stable at any h (MuJoCo's
+// Euler keeps springs explicit). Ball and free joints' springs stay explicit. The joint arrays
+// (njnt) are the packed model's or MuJoCo's (osttJoint numbers joints as mjtJoint); both
+// providers call this.
+OST_HD void osti_implicitSprings(ostNum* Mt, ostNum* f, int nv, int njnt, const int* jnt_type,
+                                 const int* jnt_dofadr, const ostNum* jnt_stiffness,
+                                 const ostNum* qvel, ostNum h) {
   for (int j = 0; j < njnt; j++) {
     int t = jnt_type[j];
     ostNum k = jnt_stiffness[j];
@@ -266,8 +287,12 @@ OST_HD void osti_implicitSprings(ostWorld* w, int njnt, const int* jnt_type, con
       continue;
     }
     int d = jnt_dofadr[j];
-    w->M[(size_t)d * nv + d] += h * h * k;
-    w->qfrc_explicit[d] -= h * k * qvel[d];
+    if (Mt) {
+      Mt[(size_t)d * nv + d] += h * h * k;
+    }
+    if (f) {
+      f[d] -= h * k * qvel[d];
+    }
   }
 }
 
@@ -275,15 +300,14 @@ OST_HD void osti_implicitSprings(ostWorld* w, int njnt, const int* jnt_type, con
 // the start of a step at (q-, u-): Mt = M(q-) + h D into w->M (unfactored) and the explicit
 // forces f = qfrc_passive - qfrc_bias + explicit actuator forces + qfrc_applied (+ J' xfrc)
 // into w->qfrc_explicit (core/README.md section 1). qfrc_applied and xfrc_applied may be NULL.
-OST_HD void osti_nativeStart(const ostModel* m, ostKin* k, ostWorld* w, const ostNum* qpos,
-                             const ostNum* qvel, const ostNum* ctrl, const ostNum* qfrc_applied,
-                             const ostNum* xfrc_applied, ostNum h) {
+// In two parts, so that the adjoint can vary the velocities and inputs alone: the position
+// part (kinematics, Mt) and the velocity part (f, reading k's kinematics at q-).
+OST_HD void osti_nativeStartPos(const ostModel* m, ostKin* k, ostWorld* w, const ostNum* qpos,
+                                ostNum h) {
   int nv = m->s.nv;
   osti_kinematics(m, k, qpos);
   osti_comPos(m, k);
   osti_crb(m, k);
-  osti_rne(m, k, qvel);
-  osti_passive(m, k, qpos, qvel);
   osti_transmission(m, k, qpos);
   // M is tree-sparse and factored without fill (ost_util_tree.h), which reads only the lower
   // triangle on the tree's pattern; a residual-only world (no row patterns) multiplies by the
@@ -302,11 +326,28 @@ OST_HD void osti_nativeStart(const ostModel* m, ostKin* k, ostWorld* w, const os
   w->dof_parent = m->dof_parentid;
   for (int j = 0; j < nv; j++) {
     w->M[j * nv + j] += h * m->dof_damping[j];
+  }
+  if (!(m->disableflags & OST_DSBL_PASSIVE)) {
+    osti_implicitSprings(w->M, NULL, nv, m->s.njnt, m->jnt_type, m->jnt_dofadr, m->jnt_stiffness,
+                         NULL, h);
+  }
+}
+
+
+// the velocity part of the start: f into w->qfrc_explicit (w->M is not touched)
+OST_HD void osti_nativeStartVel(const ostModel* m, ostKin* k, ostWorld* w, const ostNum* qpos,
+                                const ostNum* qvel, const ostNum* ctrl,
+                                const ostNum* qfrc_applied, const ostNum* xfrc_applied, ostNum h) {
+  int nv = m->s.nv;
+  osti_rne(m, k, qvel);
+  osti_passive(m, k, qpos, qvel);
+  for (int j = 0; j < nv; j++) {
     w->qfrc_explicit[j] = k->qfrc_passive[j] - k->qfrc_bias[j]
                           + (qfrc_applied ? qfrc_applied[j] : 0);
   }
   if (!(m->disableflags & OST_DSBL_PASSIVE)) {
-    osti_implicitSprings(w, m->s.njnt, m->jnt_type, m->jnt_dofadr, m->jnt_stiffness, qvel, h);
+    osti_implicitSprings(NULL, w->qfrc_explicit, nv, m->s.njnt, m->jnt_type, m->jnt_dofadr,
+                         m->jnt_stiffness, qvel, h);
   }
 
   // explicit actuators: force = gain input + bias clamped to forcerange, times moment, with
@@ -356,6 +397,15 @@ OST_HD void osti_nativeStart(const ostModel* m, ostKin* k, ostWorld* w, const os
       }
     }
   }
+}
+
+
+// the whole start of a step (osti_nativeStartPos, then osti_nativeStartVel)
+OST_HD void osti_nativeStart(const ostModel* m, ostKin* k, ostWorld* w, const ostNum* qpos,
+                             const ostNum* qvel, const ostNum* ctrl, const ostNum* qfrc_applied,
+                             const ostNum* xfrc_applied, ostNum h) {
+  osti_nativeStartPos(m, k, w, qpos, h);
+  osti_nativeStartVel(m, k, w, qpos, qvel, ctrl, qfrc_applied, xfrc_applied, h);
 }
 
 #ifdef __cplusplus

@@ -187,7 +187,8 @@ static int recordJacobian(ostContext* c, const mjModel* m, const ostRecord* r, i
   double resid;
   for (;;) {
     size_t cap = c->adj_scratch_cap > (size_t)nv ? c->adj_scratch_cap : 0;
-    int rc = ostd_stepJacobian(c->adj_work, &s, c->adj_scratch, cap / 2, ny, &resid);
+    int rc = ostd_stepJacobian(c->adj_work, &s, c->adj_scratch, cap / 2, ny, &resid,
+                               c->adj_oracle);
     if (rc == 0) {
       break;
     }
@@ -306,6 +307,57 @@ int ost_recordsBackward(ostContext* c, const mjModel* m, void* recs, size_t nbyt
     status = recordBackward(c, m, &r, go, g, gctrl, gtheta);
   }
   free(offs);
+  return status;
+}
+
+
+// the largest difference between the split passes' and the oracle's Jacobian over the records
+// of d's last step, per column relative to the column's largest entry (tests: the split passes
+// must equal the oracle to rounding, ost_internal.h)
+int ost_adjointOracleDiff(const mjModel* m, mjData* d, int truncate, int params, double* diff) {
+  ostContext* c = ost_findContext(d);
+  if (!c || c->rec_n == 0) {
+    return OST_ERR_INPUT;
+  }
+  int status = recordsSolved(c, m, c->rec_buf, c->rec_bytes);
+  if (status || (status = adjointPrepare(c, m))) {
+    return status;
+  }
+  *diff = 0;
+  int oracle = c->adj_oracle;
+  for (size_t off = 0; off < c->rec_bytes && !status;) {
+    ostRecord r;
+    off += ost_recordView(m, (char*)c->rec_buf + off, &r);
+    int ny, *piv, nx = 2 * m->nv + m->na;
+    size_t ncol = 0, nG = 0;
+    mjtNum* G0 = NULL;
+    for (int pass = 0; pass < 2 && !status; pass++) {
+      c->adj_oracle = pass;
+      if ((status = recordJacobian(c, m, &r, truncate, params, 0, &ny, &piv))) {
+        break;
+      }
+      ncol = ny + nx + m->nu + (params ? ost_nparam(m) : 0);
+      nG = (size_t)(ny + nx) * ncol;
+      if (pass == 0) {
+        G0 = (mjtNum*)malloc(nG * sizeof(mjtNum));
+        if (!G0) {
+          status = ost_fail(c, OST_ERR_MEMORY, "cannot allocate");
+          break;
+        }
+        memcpy(G0, c->adj_scratch, nG * sizeof(mjtNum));
+      }
+    }
+    for (size_t j = 0; !status && j < ncol; j++) {
+      double e = 0, sc = 1e-300;
+      for (size_t i = 0; i < nG / ncol; i++) {
+        e = fmax(e, fabs(G0[i * ncol + j] - c->adj_scratch[i * ncol + j]));
+        sc = fmax(sc, fabs(c->adj_scratch[i * ncol + j]));
+      }
+      *diff = fmax(*diff, e / sc);
+    }
+    free(G0);
+  }
+  c->adj_oracle = oracle;
   return status;
 }
 

@@ -66,8 +66,8 @@ extern "C" void ostd_workFree(void* work) {
 
 
 extern "C" int ostd_stepJacobian(void* work, const ostdStep* st, double* G, size_t G_cap,
-                                 int* n_out, double* resid) {
-  return ostx_stepJacobian(&((Work*)work)->jw, st, G, G_cap, n_out, resid);
+                                 int* n_out, double* resid, int dense) {
+  return ostx_stepJacobian(&((Work*)work)->jw, st, G, G_cap, n_out, resid, dense);
 }
 
 

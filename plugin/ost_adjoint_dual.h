@@ -29,10 +29,11 @@ void ostd_workFree(void* work);
 // contact key); n = nv + their count. G ((n + 2 nv + na) x ncol, row-major, ncol = n + 2 nv +
 // na + nu + nparam) receives the rows R (n) then O = (dq+, u+, act+) (2 nv + na), differentiated
 // by the columns y = (u, lambda) (n) then xi = (dq-, u-, act-, ctrl, theta). *resid gets |R| at
-// the solution.
+// the solution. dense = 1: every column through the whole evaluation (the test oracle); 0: each
+// input through the part of the step it moves (core/ost_adjoint_jacobian.h, ostx_jacColumnsSplit).
 // Returns 0, 1 if G needs more than G_cap doubles (*n still set), 2 if the rows overflow.
 int ostd_stepJacobian(void* work, const ostdStep* s, double* G, size_t G_cap, int* n,
-                      double* resid);
+                      double* resid, int dense);
 
 // bytes of the dual work of one batch adjoint lane (ostAdjointLayout.jac_size)
 size_t ostd_jacWorkSize(const void* model, int nrow_max);

@@ -22,10 +22,11 @@
 // most lanes of the cuda batch's backward pass (fewer if the GPU's memory is short)
 #define OST_CUDA_ADJOINT_LANES 16384
 
-// GPU threads that share one record's Jacobian columns (phase 3b), each in a dual work of the
-// pool (as many works as the device holds threads of that kernel): a record of the box scene
-// has about 45 columns, 12 chunks of 4. On the CPU a world's records stay on its thread.
-#define OST_CUDA_JAC_THREADS 12
+// GPU threads per record's Jacobian (phase 3b), each in a dual work of the pool (as many works
+// as the device holds threads of that kernel): one, since the split passes
+// (core/ost_adjoint_jacobian.h, ostx_jacColumnsSplit) share their base evaluation. On the CPU a
+// world's records stay on its thread.
+#define OST_CUDA_JAC_THREADS 1
 
 // substeps a backward segment of S steps may record: 2 S + 8 (a step split once takes 2, a
 // step split three levels deep 8)

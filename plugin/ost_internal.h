@@ -111,6 +111,8 @@ typedef struct ostContext_ {
   size_t         rec_last;        // offset of the last one
   size_t         rec_cap;         // capacity of rec_buf in bytes
   void*          adj_work;        // dual-number work block of the adjoint
+  int            adj_oracle;      // 1: the dense dual Jacobian per record (tests' oracle),
+                                  // 0: the split passes (ostx_jacColumnsSplit, the default)
   const void*    adj_model_block; // native_block it was made for
   int*           adj_fric_geom;   // per packed pair: geoms whose friction it takes (2 each)
   mjtNum*        adj_fric_weight; // their weights
@@ -249,5 +251,9 @@ int ost_recordsBackward(ostContext* c, const mjModel* m, void* recs, size_t nbyt
 
 // the adjoint's resources of a context (called when the context is freed)
 void ost_adjointFree(ostContext* c);
+
+// tests: the largest per-column relative difference between the split passes' step Jacobian
+// and the dense oracle's (ostContext.adj_oracle) over the records of d's last step
+int ost_adjointOracleDiff(const mjModel* m, mjData* d, int truncate, int params, double* diff);
 
 #endif  // OSTRICH_PLUGIN_OST_INTERNAL_H_

@@ -536,7 +536,8 @@ static void mujocoStart(ostContext* c, const mjModel* m, mjData* d, mjtNum h, in
 
   // hinge and slide springs implicitly (core/ost_rows_native.h)
   if (!(m->opt.disableflags & mjDSBL_PASSIVE)) {
-    osti_implicitSprings(w, m->njnt, m->jnt_type, m->jnt_dofadr, m->jnt_stiffness, d->qvel, h);
+    osti_implicitSprings(w->M, w->qfrc_explicit, nv, m->njnt, m->jnt_type, m->jnt_dofadr,
+                         m->jnt_stiffness, d->qvel, h);
   }
 }
 
