@@ -32,7 +32,8 @@ typedef struct ostJacWork_ {      // the dual evaluation's state: pointers into 
   ostWorld  w;                    // dual world: rows, J, Mt, f at the step
   ostNum *qpos, *qplus, *qref, *dqm, *dqp, *u, *uprev, *ctrl, *qfrc, *xfrc, *lambda, *R;
   ostNum *act, *act_next, *input; // act- (na), act+ (na), actuator inputs (nu): ost_activation.h
-  ostNum *M0, *f0;                // the step's Mt (unfactored, nv x nv) and f (nv) at the values
+  ostNum *M0, *f0, *fp0;          // the step's Mt (unfactored, nv x nv), f (nv) and f without
+                                  // the explicit actuators (nv), at the values
   double *Rq, *T;                 // dR/dq+ ((nv + nrow_max) x nv) and d(dq+)/d(u, dq-) (nv x 2 nv)
   ostRow*   rec;                  // the recorded rows as dual rows (matching keys)
   ostNum*   rec_lambda;           // their multipliers
@@ -41,10 +42,10 @@ typedef struct ostJacWork_ {      // the dual evaluation's state: pointers into 
 } ostJacWork;
 
 // dual vectors of the work: 3 nq + 6 nv + nu + 6 nbody + 2 nrow_max + nv + nrow_max, then
-// 2 na + nu for the activations, nv^2 + nv for Mt and f
+// 2 na + nu for the activations, nv^2 + 2 nv for Mt, f and f without actuators
 OST_HD size_t ostx_jacVectors(ostSizes s, int nrow_max) {
   return 3 * (size_t)s.nq + 7 * (size_t)s.nv + s.nu + 6 * (size_t)s.nbody + 3 * (size_t)nrow_max
-         + 2 * (size_t)s.na + s.nu + (size_t)s.nv * s.nv + s.nv;
+         + 2 * (size_t)s.na + s.nu + (size_t)s.nv * s.nv + 2 * (size_t)s.nv;
 }
 
 
@@ -101,7 +102,8 @@ OST_HD void ostx_jacWorkInit(ostJacWork* wk, void* block, ostModel* m, int nrow_
   wk->act_next = v; v += s.na;
   wk->input = v;  v += s.nu;
   wk->M0 = v;     v += (size_t)s.nv * s.nv;
-  wk->f0 = v;
+  wk->f0 = v;     v += s.nv;
+  wk->fp0 = v;
 }
 
 
@@ -234,7 +236,14 @@ OST_HD int ostx_jacStructure(ostJacWork* wk, const ostdStep* st, double* lam, in
   if (st->nrow > wk->nrow_max) {
     return 2;
   }
-  if (ostx_jacEvaluate(wk, st, -1, 0, -1, NULL)) {
+  // the rows at q+ = (q- (+) 0) (+) h u alone (no start, no residual), as every pass makes them
+  ostModel* m = wk->m;
+  ostx_jacLoad(wk, st, 0, NULL);
+  osti_actuation(m, wk->ctrl, wk->act, st->h, wk->act_next, wk->input);
+  osti_integratePos(m, wk->qpos, wk->dqm, 1);
+  for (int i = 0; i < m->s.nq; i++) wk->qplus[i] = wk->qpos[i];
+  osti_integratePos(m, wk->qplus, wk->u, st->h);
+  if (osti_nativeIterate(m, &wk->k, &wk->w, wk->qplus, wk->input, st->lookahead, st->h)) {
     return 2;
   }
   int nrow = wk->w.nrow;
@@ -296,18 +305,20 @@ OST_HD int ostx_jacColumns(ostJacWork* wk, const ostdStep* st, const double* lam
 // q+ = (q- (+) dq-) (+) h u by the chain rule, d/dc = d/dc|q+ held + (dR/dq+) T_c with
 // T = d(dq+)/d(u, dq-), dq+ the tangent of q+ (osti_tangentLinear). Passes of OSTX_CHUNK
 // columns each, in this order (each leaves what the next reads):
-//   y = (u, lambda)  the residual alone, on the step's factor and row diagonal (cheap)
+//   y = (u, lambda)  the dynamics rows in closed form (linear in y), the constraint rows by
+//                    the residual alone on the step's factor and row diagonal (cheap)
 //   u-               the start's velocity part (f) and the dynamics rows
-//   act-, ctrl       the inputs (act+), f and the servo rows' fields
+//   act-, ctrl       the inputs (act+), the actuators' forces and the servo rows' fields
 //   dq-              the start at q- (+) dq- (Mt, f, the row diagonal), q+ held
 //   theta            the whole evaluation, q+ held
 //   dR/dq+           kinematics, collision and rows at q+ (+) delta: nv directions, the only
 //                    passes through collision
 //   T                the exponential maps alone
-// Same inputs and result as ostx_jacColumns with c0 = 0, cstep = OSTX_CHUNK, on a work that
-// ran the structure pass (the columns differ from the oracle's by rounding only).
+// Same inputs and result as ostx_jacColumns with c0 = 0, cstep = OSTX_CHUNK (the columns differ
+// from the oracle's by rounding only). rows_ready: this work (the same ostJacWork, not only its
+// block) ran the step's structure pass last, so its rows at q+ are reused.
 OST_HD int ostx_jacColumnsSplit(ostJacWork* wk, const ostdStep* st, const double* lam, int ny,
-                                double* G, int ncol, double* r2) {
+                                double* G, int ncol, double* r2, int rows_ready) {
   ostModel* m = wk->m;
   ostWorld* w = &wk->w;
   int nq = m->s.nq, nv = m->s.nv, nu = m->s.nu, na = m->s.na, nrow = ny - nv;
@@ -319,13 +330,16 @@ OST_HD int ostx_jacColumnsSplit(ostJacWork* wk, const ostdStep* st, const double
   ostx_jacLoad(wk, st, nrow, lam);
   osti_actuation(m, wk->ctrl, wk->act, h, wk->act_next, wk->input);
   osti_integratePos(m, wk->qpos, wk->dqm, 1);
-  osti_nativeStart(m, &wk->km, w, wk->qpos, wk->uprev, wk->input, wk->qfrc, wk->xfrc, h);
+  osti_nativeStartPos(m, &wk->km, w, wk->qpos, h);
+  osti_nativeStartVel(m, &wk->km, w, wk->qpos, wk->uprev, NULL, wk->qfrc, wk->xfrc, h);
+  for (int i = 0; i < nv; i++) wk->fp0[i] = w->qfrc_explicit[i];
+  osti_nativeActuatorForces(m, &wk->km, w->qfrc_explicit, wk->uprev, wk->input);
   for (int i = 0; i < nv * nv; i++) wk->M0[i] = w->M[i];
   for (int i = 0; i < nv; i++) wk->f0[i] = w->qfrc_explicit[i];
   for (int i = 0; i < nq; i++) wk->qplus[i] = wk->qpos[i];
   osti_integratePos(m, wk->qplus, wk->u, h);
   for (int i = 0; i < nq; i++) wk->qref[i] = (double)wk->qplus[i];
-  if (osti_nativeIterate(m, &wk->k, w, wk->qplus, wk->input, st->lookahead, h)
+  if ((!rows_ready && osti_nativeIterate(m, &wk->k, w, wk->qplus, wk->input, st->lookahead, h))
       || w->nrow != nrow) {
     return 2;
   }
@@ -338,19 +352,26 @@ OST_HD int ostx_jacColumnsSplit(ostJacWork* wk, const ostdStep* st, const double
   }
   for (size_t i = 0; i < (size_t)(ny + nx) * ncol; i++) G[i] = 0;
 
-#define OSTX_COLUMN(c, k) for (int i_ = 0; i_ < ny; i_++) G[(size_t)i_ * ncol + (c)] = wk->R[i_].d[k]
+#define OSTX_COLUMN(c, k) \
+  for (int i_ = 0; i_ < ny; i_++) G[(size_t)i_ * ncol + (c)] = wk->R[i_].d[k]
 
-  // y = (u, lambda), the residual alone
+  // y = (u, lambda): the dynamics rows are linear, Mt (u - u-) - h J' lambda, so their columns
+  // are Mt's and -h J's; the constraint rows by the residual alone
+  for (int i = 0; i < nv; i++) {
+    for (int j = 0; j < nv; j++) G[(size_t)i * ncol + j] = (double)wk->M0[(size_t)i * nv + j];
+    for (int r = 0; r < nrow; r++) {
+      G[(size_t)i * ncol + nv + r] = -(double)h * (double)w->J[(size_t)r * nv + i];
+    }
+  }
   for (int c0 = 0; c0 < ny; c0 += C) {
     for (int k = 0; k < C && c0 + k < ny; k++) {
       int c = c0 + k;
       if (c < nv) wk->u[c].d[k] = 1; else wk->lambda[c - nv].d[k] = 1;
     }
-    osti_residualDynamics(w, wk->M0, wk->u, wk->lambda, wk->R);
     osti_residualRows(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R + nv);
     for (int k = 0; k < C && c0 + k < ny; k++) {
       int c = c0 + k;
-      OSTX_COLUMN(c, k);
+      for (int i = nv; i < ny; i++) G[(size_t)i * ncol + c] = wk->R[i].d[k];
       if (c < nv) wk->u[c] = (double)wk->u[c]; else wk->lambda[c - nv] = (double)wk->lambda[c - nv];
     }
   }
@@ -376,7 +397,8 @@ OST_HD int ostx_jacColumnsSplit(ostJacWork* wk, const ostdStep* st, const double
       if (c < na) wk->act[c].d[k] = 1; else wk->ctrl[c - na].d[k] = 1;
     }
     osti_actuation(m, wk->ctrl, wk->act, h, wk->act_next, wk->input);
-    osti_nativeStartVel(m, &wk->km, w, wk->qpos, wk->uprev, wk->input, wk->qfrc, wk->xfrc, h);
+    for (int i = 0; i < nv; i++) w->qfrc_explicit[i] = wk->fp0[i];
+    osti_nativeActuatorForces(m, &wk->km, w->qfrc_explicit, wk->uprev, wk->input);
     osti_nativeServoRows(m, &wk->k, w, wk->input, h);
     osti_residualDynamics(w, wk->M0, wk->u, wk->lambda, wk->R);
     osti_residualRows(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R + nv);
@@ -418,7 +440,7 @@ OST_HD int ostx_jacColumnsSplit(ostJacWork* wk, const ostdStep* st, const double
       ostx_clearParamSeeds(m);
       return 2;
     }
-    if (st->truncate) {  // contact J held: its derivative by the friction scale dropped, as the oracle
+    if (st->truncate) {  // contact J held (its derivative by the friction scale dropped)
       osti_tangentLinear(m, wk->dqp, wk->qplus, wk->qref);
       osti_truncateContacts(w, wk->dqp);
     }
@@ -505,7 +527,7 @@ OST_HD int ostx_stepJacobian(ostJacWork* wk, const ostdStep* st, double* G, size
   }
   double r2 = 0;
   if (dense ? ostx_jacColumns(wk, st, NULL, ny, 0, OSTX_CHUNK, G, ncol, &r2)
-            : ostx_jacColumnsSplit(wk, st, NULL, ny, G, ncol, &r2)) {
+            : ostx_jacColumnsSplit(wk, st, NULL, ny, G, ncol, &r2, 1)) {
     return 2;
   }
   *resid = sqrt(r2);
@@ -550,8 +572,9 @@ OST_HD void ostx_recordStructure(ostModel* m, const ostAdjointLayout* A, char* l
 
 
 // 3b: the record's Jacobian into the lane's G by the split passes (ostx_jacColumnsSplit) in the
-// dual work block `work` (NULL: the lane's own); one thread per lane (A->njac = 1: the passes
-// share their base evaluation). OST_STEP_OVERFLOW if the rows differ from the structure pass's.
+// dual work block `work` (NULL: the lane's own; the rows are made again, as 3a's world struct is
+// gone); one thread per lane (A->njac = 1: the passes share their base evaluation). OST_STEP_OVERFLOW if the rows differ
+// from the structure pass's.
 OST_HD void ostx_recordColumns(ostModel* m, const ostAdjointLayout* A, char* lanes, int l, int t,
                                int j, const ostAdjointSettings* as, char* work) {
   ostAdjointLane al;
@@ -566,7 +589,7 @@ OST_HD void ostx_recordColumns(ostModel* m, const ostAdjointLayout* A, char* lan
   ostJacWork jw;
   ostx_jacWorkInit(&jw, work ? work : al.jac, m, A->nrow_max);
   int ncol = ny + 2 * A->s.nv + A->s.na + A->s.nu;
-  if (ostx_jacColumnsSplit(&jw, &st, al.lam, ny, al.G, ncol, NULL)) {
+  if (ostx_jacColumnsSplit(&jw, &st, al.lam, ny, al.G, ncol, NULL, 0)) {
     al.info[OST_ADJ_FAILED] = OST_STEP_OVERFLOW;
   }
 }

@@ -334,25 +334,12 @@ OST_HD void osti_nativeStartPos(const ostModel* m, ostKin* k, ostWorld* w, const
 }
 
 
-// the velocity part of the start: f into w->qfrc_explicit (w->M is not touched)
-OST_HD void osti_nativeStartVel(const ostModel* m, ostKin* k, ostWorld* w, const ostNum* qpos,
-                                const ostNum* qvel, const ostNum* ctrl,
-                                const ostNum* qfrc_applied, const ostNum* xfrc_applied, ostNum h) {
+// the explicit actuators' forces added to f (nv), k's transmission at q-: force = gain input +
+// bias clamped to forcerange, times moment, with gain g or a muscle's -F FL FV, bias b0 + b1 L
+// + b2 V or a muscle's -F FP (eq. 8c), all at (q-, u-); input the clamped ctrl or act+ (eq. 8b)
+OST_HD void osti_nativeActuatorForces(const ostModel* m, const ostKin* k, ostNum* f,
+                                      const ostNum* qvel, const ostNum* ctrl) {
   int nv = m->s.nv;
-  osti_rne(m, k, qvel);
-  osti_passive(m, k, qpos, qvel);
-  for (int j = 0; j < nv; j++) {
-    w->qfrc_explicit[j] = k->qfrc_passive[j] - k->qfrc_bias[j]
-                          + (qfrc_applied ? qfrc_applied[j] : 0);
-  }
-  if (!(m->disableflags & OST_DSBL_PASSIVE)) {
-    osti_implicitSprings(NULL, w->qfrc_explicit, nv, m->s.njnt, m->jnt_type, m->jnt_dofadr,
-                         m->jnt_stiffness, qvel, h);
-  }
-
-  // explicit actuators: force = gain input + bias clamped to forcerange, times moment, with
-  // gain g or a muscle's -F FL FV, bias b0 + b1 L + b2 V or a muscle's -F FP (eq. 8c), all at
-  // (q-, u-); input the clamped ctrl or act+ (eq. 8b)
   if (!(m->disableflags & OST_DSBL_ACTUATION)) {
     for (int i = 0; i < m->s.nu; i++) {
       if (m->actuator_servo[i]) {
@@ -371,15 +358,34 @@ OST_HD void osti_nativeStartVel(const ostModel* m, ostKin* k, ostWorld* w, const
       ostNum bias = m->actuator_biastype[i] == OST_BIAS_MUSCLE
                     ? osti_muscleBias(L, lr, m->actuator_acc0[i], m->actuator_biasmus + 9 * i)
                     : b[0] + b[1] * L + b[2] * V;
-      ostNum f = gain * osti_ctrl(m, ctrl, i) + bias;
+      ostNum force = gain * osti_ctrl(m, ctrl, i) + bias;
       if (m->actuator_forcelimited[i]) {
         const ostNum* r = m->actuator_forcerange + 2 * i;
-        f = f < r[0] ? r[0] : (f > r[1] ? r[1] : f);
+        force = force < r[0] ? r[0] : (force > r[1] ? r[1] : force);
       }
       for (int j = 0; j < nv; j++) {
-        w->qfrc_explicit[j] += mom[j] * f;
+        f[j] += mom[j] * force;
       }
     }
+  }
+}
+
+
+// the velocity part of the start: f into w->qfrc_explicit (w->M is not touched), the explicit
+// actuators' forces last (osti_nativeActuatorForces; none if ctrl is NULL)
+OST_HD void osti_nativeStartVel(const ostModel* m, ostKin* k, ostWorld* w, const ostNum* qpos,
+                                const ostNum* qvel, const ostNum* ctrl,
+                                const ostNum* qfrc_applied, const ostNum* xfrc_applied, ostNum h) {
+  int nv = m->s.nv;
+  osti_rne(m, k, qvel);
+  osti_passive(m, k, qpos, qvel);
+  for (int j = 0; j < nv; j++) {
+    w->qfrc_explicit[j] = k->qfrc_passive[j] - k->qfrc_bias[j]
+                          + (qfrc_applied ? qfrc_applied[j] : 0);
+  }
+  if (!(m->disableflags & OST_DSBL_PASSIVE)) {
+    osti_implicitSprings(NULL, w->qfrc_explicit, nv, m->s.njnt, m->jnt_type, m->jnt_dofadr,
+                         m->jnt_stiffness, qvel, h);
   }
 
   // body wrenches (force, torque) applied at the center of mass: f += Jp' F + Jr' T
@@ -396,6 +402,9 @@ OST_HD void osti_nativeStartVel(const ostModel* m, ostKin* k, ostWorld* w, const
         }
       }
     }
+  }
+  if (ctrl) {
+    osti_nativeActuatorForces(m, k, w->qfrc_explicit, qvel, ctrl);
   }
 }
 

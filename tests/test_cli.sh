@@ -422,6 +422,21 @@ else
 fi
 
 
+#---------------------------------- bench adjoint -------------------------------------------------
+
+expect_usage_error "bench adjoint: no model" bench adjoint --steps 5
+expect_usage_error "bench adjoint: missing model" bench adjoint "$tmp/no_such_model.xml"
+expect_usage_error "bench adjoint: --steps 0" bench adjoint --steps 0 "$MODELS/cartpole.xml"
+OSTRICH_QUIET=1 run bench adjoint --steps 10 --repeat 1 "$MODELS/cartpole.xml" \
+  --csv "$tmp/ba.csv"
+expect_rc 0 "bench adjoint on the cart-pole, 10 steps"
+expect_py "bench adjoint: the backward pass and MuJoCo's finite differences timed in one run" \
+  "len(j['models']) == 1 and all(j['models'][0][k] > 0 for k in ('fwd_us', 'tape_us', 'bwd_us',
+   'bwd_over_fwd', 'mj_step_us', 'transitionFD_us', 'fd_over_bwd_sim', 'tape_bytes_per_step'))
+   and j['models'][0]['error'] == '' and j['models'][0]['unconverged'] == 0
+   and len(rows) == 2 and rows[0][7] == 'bwd_us'" "$tmp/ba.csv"
+
+
 #---------------------------------- summary -------------------------------------------------------
 
 echo "test_cli: $npass passed, $nfail failed"

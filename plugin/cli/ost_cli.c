@@ -572,7 +572,8 @@ static const cliCommand kCommands[] = {
   {"compare", "A/B against stock MuJoCo: timestep sweeps, replay, identify, hard cases",
    compare_main},
   {"bench", "benchmarks: `bench scale`, world scaling of the batch (cpu, cuda); `bench models`,\n"
-   "             ost_step against mj_step per model and against nv", bench_main},
+   "             ost_step against mj_step per model and against nv; `bench adjoint`, the\n"
+   "             backward pass against the step and mjd_transitionFD", bench_main},
 };
 
 static const int kNumCommands = (int)(sizeof(kCommands) / sizeof(kCommands[0]));

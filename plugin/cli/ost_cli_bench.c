@@ -349,7 +349,8 @@ static int benchScale(int argc, char** argv) {
 int bench_main(int argc, char** argv) {
   if (argc < 1 || !strcmp(argv[0], "--help") || !strcmp(argv[0], "-h")) {
     printf("usage: ostrich bench scale [MODEL.xml] [options]  (see ostrich bench scale --help)\n"
-           "       ostrich bench models MODEL.xml ... [options]  (ostrich bench models --help)\n");
+           "       ostrich bench models MODEL.xml ... [options]  (ostrich bench models --help)\n"
+           "       ostrich bench adjoint MODEL.xml ... [options]  (ostrich bench adjoint --help)\n");
     return argc < 1 ? CLI_USAGE : CLI_OK;
   }
   if (!strcmp(argv[0], "scale")) {
@@ -358,6 +359,9 @@ int bench_main(int argc, char** argv) {
   if (!strcmp(argv[0], "models")) {
     return bench_models_main(argc - 1, argv + 1);
   }
-  cli_error("bench: unknown benchmark '%s' (scale, models)", argv[0]);
+  if (!strcmp(argv[0], "adjoint")) {
+    return bench_adjoint_main(argc - 1, argv + 1);
+  }
+  cli_error("bench: unknown benchmark '%s' (scale, models, adjoint)", argv[0]);
   return CLI_USAGE;
 }

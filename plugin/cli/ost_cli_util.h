@@ -51,6 +51,10 @@ int bench_main(int argc, char** argv);
 // (ost_cli_bench_models.c); called by bench_main.
 int bench_models_main(int argc, char** argv);
 
+// `ostrich bench adjoint`: the backward pass against the forward step and against
+// mjd_transitionFD, one core (ost_cli_bench_adjoint.c); called by bench_main.
+int bench_adjoint_main(int argc, char** argv);
+
 
 //---------------------------------- Messages ------------------------------------------------------
 
