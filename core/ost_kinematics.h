@@ -148,8 +148,9 @@ OST_HD void osti_kinSubQuat(ostNum res[3], const ostNum q[4], const ostNum qref[
 
 //---------------------------------- kinematics ---------------------------------------------------
 
-// xpos, xquat, xmat, xipos, ximat of every body, xanchor, xaxis of every joint and geom_xpos,
-// geom_xmat of every geom at configuration qpos (mj_kinematics). Bodies are visited parent first
+// xpos, xquat, xmat, xipos, ximat of every body, xanchor, xaxis of every joint at configuration
+// qpos (mj_kinematics without geoms and sites; osti_kinematics adds the geoms). Bodies are
+// visited parent first
 // (MuJoCo's body order); within a body, joints act in order, each about its own anchor:
 //   free:  x = qpos[0:3], q = normalize(qpos[3:7])      (the body's frame in the world)
 //   other: x = x_parent + R_parent body_pos, q = q_parent body_quat, then per joint
@@ -158,7 +159,7 @@ OST_HD void osti_kinSubQuat(ostNum res[3], const ostNum q[4], const ostNum qref[
 //          hinge: q = q (cos(qpos/2), jnt_axis sin(qpos/2)), x = anchor - R(q) jnt_pos
 //          ball:  q = q normalize(qpos[0:4]),            x = anchor - R(q) jnt_pos
 // qpos itself is not modified (quaternions are normalized in local copies, as MuJoCo does)
-OST_HD void osti_kinematics(const ostModel* m, ostKin* k, const ostNum* qpos) {
+OST_HD void osti_kinematicsBodies(const ostModel* m, ostKin* k, const ostNum* qpos) {
   int nbody = m->s.nbody;
 
   // world body
@@ -264,8 +265,13 @@ OST_HD void osti_kinematics(const ostModel* m, ostKin* k, const ostNum* qpos) {
     osti_kinQuatMul(qi, q, m->body_iquat + 4*i);
     osti_kinQuat2Mat(k->ximat + 9*i, qi);
   }
+}
 
-  // geoms: geom_xpos = x_b + R_b geom_pos, geom_xmat = R(q_b geom_quat)
+
+// osti_kinematicsBodies, then the geoms: geom_xpos = x_b + R_b geom_pos, geom_xmat =
+// R(q_b geom_quat) (what collision reads; dynamics needs the bodies alone)
+OST_HD void osti_kinematics(const ostModel* m, ostKin* k, const ostNum* qpos) {
+  osti_kinematicsBodies(m, k, qpos);
   for (int g = 0; g < m->s.ngeom; g++) {
     int b = m->geom_bodyid[g];
     ostNum v[3], qg[4];

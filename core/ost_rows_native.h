@@ -305,7 +305,7 @@ OST_HD void osti_implicitSprings(ostNum* Mt, ostNum* f, int nv, int njnt, const 
 OST_HD void osti_nativeStartPos(const ostModel* m, ostKin* k, ostWorld* w, const ostNum* qpos,
                                 ostNum h) {
   int nv = m->s.nv;
-  osti_kinematics(m, k, qpos);
+  osti_kinematicsBodies(m, k, qpos);  // no geoms: the start collides nothing
   osti_comPos(m, k);
   osti_crb(m, k);
   osti_transmission(m, k, qpos);

@@ -1048,35 +1048,10 @@ OST_HD ostRowSet osti_islandSet(const ostWorld* w, int I) {
 
 
 #ifndef OST_NUM_TYPE  // the forward solver runs in doubles (the LU takes double)
-// A x = b on a set of at most OST_DIRECT_MAX rows (x, b local), directly: A = J Mt^-1 J' +
-// (c / h) plus the sliding couplings of osti_newtonApplySet, assembled from the rows'
-// half-solves y_i = D^-1/2 L^-T J_i' (within their parent-closed patterns, as osti_rowDiag) as
-// A_lm = sum_c y_l[c] y_m[c] over the columns two patterns share, each row scaled by its
-// Jacobi preconditioner (the fixed rows' c ~ 1e12 k_f would dwarf the others), then an LU factor
-// with partial pivoting. Needs row patterns and the tree factor. Returns 1 (one "iteration"),
-// or 0 if the factor failed (the caller falls back to the iterative solve).
-OST_HD int osti_directSet(ostWorld* w, const ostRowSet* set, ostNum* x, const ostNum* b) {
-  int n = set->n, nv = w->nv, ncol = w->ncol;
-  const int* parent = w->dof_parent;
-  ostNum* y = w->tmp + nv;  // dense scratch on a pattern
-  for (int l = 0; l < n; l++) {
-    int i = OST_SET_ROW(set, l), cnt = w->Jnnz[i];
-    const ostNum* v = w->J + (size_t)i * ncol;
-    const int* ind = w->Jind + (size_t)i * ncol;
-    for (int k = 0; k < cnt; k++) {
-      y[ind[k]] = v[k];
-    }
-    ostNum* Y = w->Yh + (size_t)l * ncol;
-    for (int k = cnt - 1; k >= 0; k--) {
-      int c = ind[k];
-      ostNum yc = y[c];
-      for (int j = parent[c]; j >= 0; j = parent[j]) {
-        y[j] -= w->M[(size_t)c * nv + j] * yc;
-      }
-      Y[k] = yc / sqrt(w->M[(size_t)c * nv + c]);  // D^-1/2 y: A_lm = Y_l . Y_m
-    }
-  }
-  ostNum* A = w->Ad;
+// A = J Mt^-1 J' + c / h on a set (n x n, symmetric) from the rows' half-solves in w->Yh
+// (osti_directSet): A_lm = sum_c y_l[c] y_m[c] over the columns two patterns share
+OST_HD void osti_directAssemble(ostWorld* w, const ostRowSet* set, ostNum* A) {
+  int n = set->n, ncol = w->ncol;
   for (int l = 0; l < n; l++) {
     int i = OST_SET_ROW(set, l);
     const int* il = w->Jind + (size_t)i * ncol;
@@ -1100,6 +1075,50 @@ OST_HD int osti_directSet(ostWorld* w, const ostRowSet* set, ostNum* x, const os
       A[(size_t)l * n + m] = A[(size_t)m * n + l] = s;
     }
     A[(size_t)l * n + l] += w->c[i] / w->h;
+  }
+}
+
+
+
+// A x = b on a set of at most OST_DIRECT_MAX rows (x, b local), directly: A = J Mt^-1 J' +
+// (c / h) plus the sliding couplings of osti_newtonApplySet, assembled from the rows'
+// half-solves y_i = D^-1/2 L^-T J_i' (within their parent-closed patterns, as osti_rowDiag) as
+// A_lm = sum_c y_l[c] y_m[c] over the columns two patterns share. Without sliding couplings A
+// is symmetric positive definite: Cholesky. Otherwise each row
+// scaled by its Jacobi preconditioner (the fixed rows' c ~ 1e12 k_f would dwarf the others), then
+// an LU factor with partial pivoting. Needs row patterns and the tree factor. Returns 1 (one
+// "iteration"), or 0 if the factor failed (the caller falls back to the iterative solve).
+OST_HD int osti_directSet(ostWorld* w, const ostRowSet* set, ostNum* x, const ostNum* b) {
+  int n = set->n, nv = w->nv, ncol = w->ncol;
+  const int* parent = w->dof_parent;
+  ostNum* y = w->tmp + nv;  // dense scratch on a pattern
+  for (int l = 0; l < n; l++) {
+    int i = OST_SET_ROW(set, l), cnt = w->Jnnz[i];
+    const ostNum* v = w->J + (size_t)i * ncol;
+    const int* ind = w->Jind + (size_t)i * ncol;
+    for (int k = 0; k < cnt; k++) {
+      y[ind[k]] = v[k];
+    }
+    ostNum* Y = w->Yh + (size_t)l * ncol;
+    for (int k = cnt - 1; k >= 0; k--) {
+      int c = ind[k];
+      ostNum yc = y[c];
+      for (int j = parent[c]; j >= 0; j = parent[j]) {
+        y[j] -= w->M[(size_t)c * nv + j] * yc;
+      }
+      Y[k] = yc / sqrt(w->M[(size_t)c * nv + c]);  // D^-1/2 y: A_lm = Y_l . Y_m
+    }
+  }
+  ostNum* A = w->Ad;
+  osti_directAssemble(w, set, A);
+  if (!osti_hasSlidingCouplingSet(w, set)) {
+    // symmetric positive definite: Cholesky, half the work of the LU below (and, unlike it, not
+    // changed by a diagonal scaling); a factor that fails (A semidefinite) goes to the LU
+    if (!ostu_cholFactor(A, n)) {
+      ostu_cholSolve(x, A, b, n);
+      return 1;
+    }
+    osti_directAssemble(w, set, A);
   }
   for (int l = 0; l + 1 < n; l++) {
     int i = OST_SET_ROW(set, l);
