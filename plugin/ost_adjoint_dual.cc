@@ -2,21 +2,33 @@
 // dynamics, collision, rows and the step's residual) compiled once more with ostNum =
 // ostDual<OSTX_CHUNK>, and core/ost_adjoint_jacobian.h's exact step Jacobian behind the C seam of
 // ost_adjoint_dual.h. The work owns a dual copy of the model, so parameters can be seeded.
+// Compiled twice: OSTX_CHUNK 8 here, and 4 by ost_adjoint_dual4.cc for models of nv <= 4, whose
+// passes would leave most of 8 directions idle. Each direction is computed on its own, so the
+// two give the same bits; this one also holds the ostd_* entry points, which pick one by the
+// model (ostd_chunkFor).
 // Invariant: reads the packed model and the step's inputs; writes only its work block and G.
 #include <stdlib.h>
 #include <string.h>
 
 #include "ost_dual.h"
 
+#ifndef OSTX_CHUNK
 #define OSTX_CHUNK 8
+#endif
 #define OST_NUM_TYPE ostDual<OSTX_CHUNK>
 
 #include "ost_adjoint_dual.h"
 #include "../core/ost_adjoint_jacobian.h"
 
+// this chunk's entry points: ostd8_name or ostd4_name
+#define OSTD_CAT2(a, b) a##b
+#define OSTD_CAT(a, b) OSTD_CAT2(a, b)
+#define OSTD(name) OSTD_CAT(OSTD_CAT(ostd, OSTX_CHUNK), name)
+
 namespace {
 
 struct Work {                     // a dual model and the evaluation's block
+  int        chunk;               // OSTX_CHUNK (first: the entry points dispatch on it)
   ostModel   m;
   void*      m_block;
   void*      block;
@@ -36,25 +48,7 @@ void* alignedZero(size_t sz) {
 }  // namespace
 
 
-extern "C" void* ostd_workCreate(const void* model, int nrow_max) {
-  const ostModelDouble* src = (const ostModelDouble*)model;
-  Work* wk = (Work*)calloc(1, sizeof(Work));
-  if (!wk) {
-    return NULL;
-  }
-  wk->m_block = alignedZero(ostx_dualModelSize(src->s));
-  wk->block = alignedZero(ostx_jacWorkSize(src->s, nrow_max));
-  if (!wk->m_block || !wk->block) {
-    ostd_workFree(wk);
-    return NULL;
-  }
-  ostx_dualModel(&wk->m, wk->m_block, src);
-  ostx_jacWorkInit(&wk->jw, wk->block, &wk->m, nrow_max);
-  return wk;
-}
-
-
-extern "C" void ostd_workFree(void* work) {
+extern "C" void OSTD(_workFree)(void* work) {
   Work* wk = (Work*)work;
   if (!wk) {
     return;
@@ -65,25 +59,92 @@ extern "C" void ostd_workFree(void* work) {
 }
 
 
-extern "C" int ostd_stepJacobian(void* work, const ostdStep* st, double* G, size_t G_cap,
-                                 int* n_out, double* resid, int dense) {
+extern "C" void* OSTD(_workCreate)(const void* model, int nrow_max) {
+  const ostModelDouble* src = (const ostModelDouble*)model;
+  Work* wk = (Work*)calloc(1, sizeof(Work));
+  if (!wk) {
+    return NULL;
+  }
+  wk->chunk = OSTX_CHUNK;
+  wk->m_block = alignedZero(ostx_dualModelSize(src->s));
+  wk->block = alignedZero(ostx_jacWorkSize(src->s, nrow_max));
+  if (!wk->m_block || !wk->block) {
+    OSTD(_workFree)(wk);
+    return NULL;
+  }
+  ostx_dualModel(&wk->m, wk->m_block, src);
+  ostx_jacWorkInit(&wk->jw, wk->block, &wk->m, nrow_max);
+  return wk;
+}
+
+
+extern "C" int OSTD(_stepJacobian)(void* work, const ostdStep* st, double* G, size_t G_cap,
+                                   int* n_out, double* resid, int dense) {
   return ostx_stepJacobian(&((Work*)work)->jw, st, G, G_cap, n_out, resid, dense);
 }
 
 
-extern "C" size_t ostd_jacWorkSize(const void* model, int nrow_max) {
+extern "C" size_t OSTD(_jacWorkSize)(const void* model, int nrow_max) {
   return ostx_jacWorkSize(((const ostModelDouble*)model)->s, nrow_max);
 }
 
 
-extern "C" void ostd_recordStructure(void* work, const ostAdjointLayout* A, char* lanes, int l,
-                                     int i, int nworld, int j, const ostAdjointSettings* as,
-                                     const double* gq, const double* gu) {
+extern "C" void OSTD(_recordStructure)(void* work, const ostAdjointLayout* A, char* lanes,
+                                       int l, int i, int nworld, int j,
+                                       const ostAdjointSettings* as, const double* gq,
+                                       const double* gu) {
   ostx_recordStructure(&((Work*)work)->m, A, lanes, l, i, nworld, j, as, gq, gu);
 }
 
 
-extern "C" void ostd_recordColumns(void* work, const ostAdjointLayout* A, char* lanes, int l,
-                                   int t, int j, const ostAdjointSettings* as) {
+extern "C" void OSTD(_recordColumns)(void* work, const ostAdjointLayout* A, char* lanes, int l,
+                                     int t, int j, const ostAdjointSettings* as) {
   ostx_recordColumns(&((Work*)work)->m, A, lanes, l, t, j, as, NULL);
 }
+
+
+#if OSTX_CHUNK == 8
+//---------------------------------- the entry points: one chunk per model --------------------------
+
+// the chunk of a model's dual passes: 4 where nv <= 4 (the widest pass seeds nv directions)
+static int chunkFor(const void* model) {
+  return ((const ostModelDouble*)model)->s.nv <= 4 ? 4 : 8;
+}
+
+static int chunkOf(const void* work) {
+  return *(const int*)work;
+}
+
+extern "C" void* ostd_workCreate(const void* model, int nrow_max) {
+  return chunkFor(model) == 4 ? ostd4_workCreate(model, nrow_max)
+                              : ostd8_workCreate(model, nrow_max);
+}
+
+extern "C" void ostd_workFree(void* work) {
+  if (work && chunkOf(work) == 4) ostd4_workFree(work); else ostd8_workFree(work);
+}
+
+extern "C" int ostd_stepJacobian(void* work, const ostdStep* st, double* G, size_t G_cap,
+                                 int* n_out, double* resid, int dense) {
+  return chunkOf(work) == 4 ? ostd4_stepJacobian(work, st, G, G_cap, n_out, resid, dense)
+                            : ostd8_stepJacobian(work, st, G, G_cap, n_out, resid, dense);
+}
+
+extern "C" size_t ostd_jacWorkSize(const void* model, int nrow_max) {
+  return chunkFor(model) == 4 ? ostd4_jacWorkSize(model, nrow_max)
+                              : ostd8_jacWorkSize(model, nrow_max);
+}
+
+extern "C" void ostd_recordStructure(void* work, const ostAdjointLayout* A, char* lanes, int l,
+                                     int i, int nworld, int j, const ostAdjointSettings* as,
+                                     const double* gq, const double* gu) {
+  if (chunkOf(work) == 4) ostd4_recordStructure(work, A, lanes, l, i, nworld, j, as, gq, gu);
+  else ostd8_recordStructure(work, A, lanes, l, i, nworld, j, as, gq, gu);
+}
+
+extern "C" void ostd_recordColumns(void* work, const ostAdjointLayout* A, char* lanes, int l,
+                                   int t, int j, const ostAdjointSettings* as) {
+  if (chunkOf(work) == 4) ostd4_recordColumns(work, A, lanes, l, t, j, as);
+  else ostd8_recordColumns(work, A, lanes, l, t, j, as);
+}
+#endif

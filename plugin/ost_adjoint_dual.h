@@ -47,6 +47,23 @@ void ostd_recordStructure(void* work, const ostAdjointLayout* A, char* lanes, in
 void ostd_recordColumns(void* work, const ostAdjointLayout* A, char* lanes, int l, int t, int j,
                         const ostAdjointSettings* as);
 
+// the same entry points of each dual build (ost_adjoint_dual.cc: 8 directions per pass,
+// ost_adjoint_dual4.cc: 4); those above choose one by the model's nv
+#define OSTD_DECLARE(P)                                                                          \
+  void* P##_workCreate(const void* model, int nrow_max);                                         \
+  void P##_workFree(void* work);                                                                 \
+  int P##_stepJacobian(void* work, const ostdStep* s, double* G, size_t G_cap, int* n,           \
+                       double* resid, int dense);                                                \
+  size_t P##_jacWorkSize(const void* model, int nrow_max);                                       \
+  void P##_recordStructure(void* work, const ostAdjointLayout* A, char* lanes, int l, int i,     \
+                           int nworld, int j, const ostAdjointSettings* as, const double* gq,   \
+                           const double* gu);                                                    \
+  void P##_recordColumns(void* work, const ostAdjointLayout* A, char* lanes, int l, int t,       \
+                         int j, const ostAdjointSettings* as);
+OSTD_DECLARE(ostd8)
+OSTD_DECLARE(ostd4)
+#undef OSTD_DECLARE
+
 #ifdef __cplusplus
 }
 #endif

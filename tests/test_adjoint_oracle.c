@@ -12,6 +12,7 @@
 #include <string.h>
 
 #include "fixture.h"
+#include "ost_adjoint_dual.h"
 #include "ost_internal.h"
 
 // TOL_JAC: per column, relative to its largest entry: the same derivatives summed in another
@@ -202,6 +203,60 @@ START_TEST(test_rowKinds) {
 END_TEST
 
 
+// the dual passes' width: a model of nv <= 4 runs 4 directions per pass (ost_adjoint_dual4.cc),
+// which must give the same bits as 8 (each direction is computed on its own): ost_adjoint with
+// parameters and ost_transition on the cart-pole and the arm, each way
+START_TEST(test_chunkWidths) {
+  ost_fixtureSetup();
+  const char* names[] = {"cartpole.xml", "arm_position_servo.xml"};
+  for (int q = 0; q < 2; q++) {
+    mjModel* m = ost_fixtureLoadModel(names[q]);
+    ck_assert_int_le(m->nv, 4);
+    mjData* d = mj_makeData(m);
+    ostOptions opt;
+    ck_assert_int_eq(ost_readOptions(m, &opt, NULL, 0), OST_OK);
+    opt.geometry = OST_GEOMETRY_NATIVE;
+    ck_assert_int_eq(ost_setOptions(m, d, &opt), OST_OK);
+    int nv = m->nv, nu = m->nu, nx = 2 * nv + m->na, np = ost_nparam(m);
+    size_t n = 2 * (size_t)nv + nu + np + (size_t)nx * (nx + nu);
+    double* out[2] = {(double*)calloc(n, sizeof(double)), (double*)calloc(n, sizeof(double))};
+    double g[64];
+    for (int i = 0; i < 2 * nv; i++) g[i] = sin(1.0 + i);
+    for (int k = 0; k < 20; k++) {
+      for (int i = 0; i < nu; i++) d->ctrl[i] = 0.5 * sin(0.3 * k + i);
+      ck_assert_int_eq(ost_step(m, d), OST_OK);
+      if (k % 5 != 4) continue;
+      ostContext* c = ost_context(m, d);
+      for (int w = 0; w < 2; w++) {
+        double* o = out[w];
+        memset(o, 0, n * sizeof(double));
+        ostGradOptions go = {0, 1};
+        ck_assert_int_eq(ost_adjoint(m, d, &go, g, g + nv, o, o + nv, o + 2 * nv, o + 2 * nv + nu),
+                         OST_OK);
+        // next: the same with a work of 8 directions in place of the model's own (4)
+        if (w == 0) {
+          ck_assert_int_eq(*(int*)c->adj_work, 4);
+          ostd_workFree(c->adj_work);
+          c->adj_work = ostd8_workCreate(&c->native, c->world.nrow_max);
+          ck_assert_int_eq(*(int*)c->adj_work, 8);
+        }
+      }
+      ck_assert_msg(!memcmp(out[0], out[1], (2 * (size_t)nv + nu + np) * sizeof(double)),
+                    "%s step %d: gradients differ between 4 and 8 directions per pass", names[q],
+                    k);
+      ostd_workFree(c->adj_work);  // the model's own again at the next use
+      c->adj_work = ostd_workCreate(&c->native, c->world.nrow_max);
+    }
+    printf("%-28s 4 and 8 directions per pass: the same bits\n", names[q]);
+    free(out[0]);
+    free(out[1]);
+    ost_deleteData(d);
+    mj_deleteModel(m);
+  }
+}
+END_TEST
+
+
 int main(void) {
   Suite* s = suite_create("adjoint_oracle");
   TCase* tc = tcase_create("split");
@@ -209,6 +264,7 @@ int main(void) {
   tcase_add_test(tc, test_terrainStack);
   tcase_add_test(tc, test_humanoid);
   tcase_add_test(tc, test_rowKinds);
+  tcase_add_test(tc, test_chunkWidths);
   suite_add_tcase(s, tc);
   return ost_fixtureRun(s);
 }
