@@ -345,12 +345,12 @@ OST_HD void osti_nativeActuatorForces(const ostModel* m, const ostKin* k, ostNum
       if (m->actuator_servo[i]) {
         continue;
       }
-      const ostNum* mom = k->actuator_moment + (size_t)i * nv;
+      // a native transmission is a joint: the moment is the gear on the joint's dof alone
+      // (osti_transmission), so V = moment u and f += moment force touch that dof only
+      int dof = m->jnt_dofadr[m->actuator_trnid[i]];
+      ostNum mom = k->actuator_moment[(size_t)i * nv + dof];
       const ostNum* b = m->actuator_biasprm + 3 * i;
-      ostNum L = k->actuator_length[i], V = 0;
-      for (int j = 0; j < nv; j++) {
-        V += mom[j] * qvel[j];
-      }
+      ostNum L = k->actuator_length[i], V = mom * qvel[dof];
       const ostNum* lr = m->actuator_lengthrange + 2 * i;
       ostNum gain = m->actuator_gaintype[i] == OST_GAIN_MUSCLE
                     ? osti_muscleGain(L, V, lr, m->actuator_acc0[i], m->actuator_gainmus + 9 * i)
@@ -363,9 +363,7 @@ OST_HD void osti_nativeActuatorForces(const ostModel* m, const ostKin* k, ostNum
         const ostNum* r = m->actuator_forcerange + 2 * i;
         force = force < r[0] ? r[0] : (force > r[1] ? r[1] : force);
       }
-      for (int j = 0; j < nv; j++) {
-        f[j] += mom[j] * force;
-      }
+      f[dof] += mom * force;
     }
   }
 }
