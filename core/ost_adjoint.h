@@ -375,12 +375,13 @@ OST_HD void osti_residualPrepare(ostWorld* w) {
 }
 
 
-// the constraint rows r (nrow) after osti_residualPrepare; fills w->Ju
-OST_HD void osti_residualRows(ostWorld* w, const ostNum* u, const ostNum* lambda, ostNum reg,
-                              ostNum creep, ostNum fb_eps, ostNum* r) {
+// the constraint rows r (nrow) after osti_residualPrepare; fills w->Ju = J u first unless ju is
+// 0 (w->Ju already holds J u for this u)
+OST_HD void osti_residualRowsJu(ostWorld* w, const ostNum* u, const ostNum* lambda, ostNum reg,
+                                ostNum creep, ostNum fb_eps, ostNum* r, int ju) {
   int nv = w->nv, nrow = w->nrow;
   ostNum h = w->h;
-  for (int i = 0; i < nrow; i++) {
+  for (int i = 0; ju && i < nrow; i++) {
     w->Ju[i] = ostu_dot(w->J + (size_t)i * nv, u, nv);
   }
   for (int i = 0; i < nrow; i++) {
@@ -443,6 +444,13 @@ OST_HD void osti_residualRows(ostWorld* w, const ostNum* u, const ostNum* lambda
       break;
     }
   }
+}
+
+
+// osti_residualRowsJu with J u made
+OST_HD void osti_residualRows(ostWorld* w, const ostNum* u, const ostNum* lambda, ostNum reg,
+                              ostNum creep, ostNum fb_eps, ostNum* r) {
+  osti_residualRowsJu(w, u, lambda, reg, creep, fb_eps, r, 1);
 }
 
 

@@ -363,12 +363,15 @@ OST_HD int ostx_jacColumnsSplit(ostJacWork* wk, const ostdStep* st, const double
       G[(size_t)i * ncol + nv + r] = -(double)h * (double)w->J[(size_t)r * nv + i];
     }
   }
+  // J u moves with the u columns only: made again in their chunks and in the first chunk after
+  // them (without seeds), kept in the multipliers' chunks after that
   for (int c0 = 0; c0 < ny; c0 += C) {
     for (int k = 0; k < C && c0 + k < ny; k++) {
       int c = c0 + k;
       if (c < nv) wk->u[c].d[k] = 1; else wk->lambda[c - nv].d[k] = 1;
     }
-    osti_residualRows(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R + nv);
+    osti_residualRowsJu(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R + nv,
+                        c0 < nv + C);
     for (int k = 0; k < C && c0 + k < ny; k++) {
       int c = c0 + k;
       for (int i = nv; i < ny; i++) G[(size_t)i * ncol + c] = wk->R[i].d[k];
@@ -401,7 +404,8 @@ OST_HD int ostx_jacColumnsSplit(ostJacWork* wk, const ostdStep* st, const double
     osti_nativeActuatorForces(m, &wk->km, w->qfrc_explicit, wk->uprev, wk->input);
     osti_nativeServoRows(m, &wk->k, w, wk->input, h);
     osti_residualDynamics(w, wk->M0, wk->u, wk->lambda, wk->R);
-    osti_residualRows(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R + nv);
+    osti_residualRowsJu(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R + nv,
+                        ny < nv + C);  // J u without seeds since the y chunks (if one followed u's)
     for (int k = 0; k < C && c0 + k < na + nu; k++) {
       int c = c0 + k;
       OSTX_COLUMN(ny + 2 * nv + c, k);
