@@ -165,6 +165,8 @@ typedef struct ostAdjointSettings_ { // what a record's backward pass needs besi
   X(char,   jac,   A->jac_size)                     /* dual work (ostJacWork's block)        */ \
   X(double, lam,   A->nrow_max)                     /* multipliers matched onto the rows     */ \
   X(double, G,     (size_t)(A->ny_max + 2 * A->s.nv + A->s.na) * A->ncol_max) /* Jacobian     */ \
+  X(double, Rq,    (size_t)A->ny_max * A->s.nv)     /* dR/dq+ of the split passes            */ \
+  X(double, T,     2 * (size_t)A->s.nv * A->s.nv)   /* d(dq+)/d(u, dq-)                      */ \
   X(double, K,     (size_t)A->ny_max * A->ny_max)   /* its y block, LU-factored              */ \
   X(int,    piv,   A->ny_max)                       /* pivots                                */ \
   X(double, w,     A->ny_max)                       /* K' w = -O_y' g                        */ \
@@ -460,6 +462,38 @@ OST_HD void osti_stepResidual(ostWorld* w, const ostNum* u, const ostNum* lambda
   osti_residualDynamics(w, w->M, u, lambda, R);
   osti_residualPrepare(w);
   osti_residualRows(w, u, lambda, reg, creep, fb_eps, R + w->nv);
+}
+
+
+// complete the split passes' G (core/ost_adjoint_jacobian.h, ostx_jacColumnsSplit; layout of
+// ostx_stepJacobian, ncol columns, ny rows R): the chain rule through q+ for the u and dq-
+// columns, G[0:ny, c] += Rq T_c (Rq = dR/dq+, ny x nv; T = d(dq+)/d(u, dq-), nv x 2 nv), and
+// the outputs' rows: dq+ = T (u, dq-), u+ = u, act+ zero outside the act- and ctrl columns (which
+// the passes wrote). Plain doubles whatever ostNum is.
+OST_HD void osti_jacAssemble(double* G, int ncol, int ny, int nv, int na, int nu, const double* Rq,
+                             const double* T) {
+  for (int c = 0; c < 2 * nv; c++) {
+    int col = c < nv ? c : ny + c - nv;
+    for (int i = 0; i < ny; i++) {
+      double s = 0;
+      for (int j = 0; j < nv; j++) s += Rq[(size_t)i * nv + j] * T[(size_t)j * 2 * nv + c];
+      G[(size_t)i * ncol + col] += s;
+    }
+  }
+  int ac0 = ny + 2 * nv, ac1 = ny + 2 * nv + na + nu;  // the act- and ctrl columns
+  for (int r = 0; r < 2 * nv + na; r++) {
+    double* g = G + (size_t)(ny + r) * ncol;
+    for (int col = 0; col < ncol; col++) {
+      if (r < nv) {          // dq+
+        g[col] = col < nv ? T[(size_t)r * 2 * nv + col]
+                          : (col >= ny && col < ny + nv ? T[(size_t)r * 2 * nv + nv + col - ny] : 0);
+      } else if (r < 2 * nv) {  // u+
+        g[col] = col == r - nv ? 1 : 0;
+      } else if (col < ac0 || col >= ac1) {  // act+ (explicit in act- and ctrl only)
+        g[col] = 0;
+      }
+    }
+  }
 }
 
 

@@ -303,22 +303,28 @@ OST_HD int ostx_jacColumns(ostJacWork* wk, const ostdStep* st, const double* lam
 // The fast path to ostx_jacColumns' G (which stays its oracle): each input column is
 // evaluated through the part of the step that it moves, and its path through
 // q+ = (q- (+) dq-) (+) h u by the chain rule, d/dc = d/dc|q+ held + (dR/dq+) T_c with
-// T = d(dq+)/d(u, dq-), dq+ the tangent of q+ (osti_tangentLinear). Passes of OSTX_CHUNK
-// columns each, in this order (each leaves what the next reads):
-//   y = (u, lambda)  the dynamics rows in closed form (linear in y), the constraint rows by
-//                    the residual alone on the step's factor and row diagonal (cheap)
-//   u-               the start's velocity part (f) and the dynamics rows
-//   act-, ctrl       the inputs (act+), the actuators' forces and the servo rows' fields
-//   dq-              the start at q- (+) dq- (Mt, f, the row diagonal), q+ held
-//   theta            the whole evaluation, q+ held
-//   dR/dq+           kinematics, collision and rows at q+ (+) delta: nv directions, the only
-//                    passes through collision
-//   T                the exponential maps alone
+// T = d(dq+)/d(u, dq-), dq+ the tangent of q+ (osti_tangentLinear). After the values (the start
+// at q-, the rows at q+, the residual with its factor and row diagonal), units of OSTX_CHUNK
+// columns of one kind each, in this order:
+//   Y    y = (u, lambda): the dynamics rows in closed form (linear in y), the constraint rows
+//        by the residual alone on the step's factor and row diagonal (cheap)
+//   UM   u-: the start's velocity part (f) and the dynamics rows
+//   AC   act-, ctrl: the inputs (act+), the actuators' forces and the servo rows' fields
+//   DQ   dq-: the start at q- (+) dq- (Mt, f, the row diagonal), q+ held
+//   TH   theta: the whole evaluation, q+ held
+//   GEO  dR/dq+ into Rq ((nv + nrow) x nv): kinematics, collision and rows at q+ (+) delta, nv
+//        directions, the only units through collision
+//   TT   T into T (nv x 2 nv): the exponential maps alone
+// Thread t of nt takes units t, t + nt, .. (each thread its own work, all writing one G, Rq and
+// T: the units' columns are disjoint); a unit leaves the work as the later kinds need it, so a
+// thread's units run in the order above. Written: rows R of every column, act+ rows of the AC
+// columns, Rq and T; osti_jacAssemble then completes G (the chain rule and the outputs' rows).
 // Same inputs and result as ostx_jacColumns with c0 = 0, cstep = OSTX_CHUNK (the columns differ
-// from the oracle's by rounding only). rows_ready: this work (the same ostJacWork, not only its
-// block) ran the step's structure pass last, so its rows at q+ are reused.
+// from the oracle's by rounding only, and not at all with nt). rows_ready: this work (the same
+// ostJacWork, not only its block) ran the step's structure pass last, so its rows are reused.
 OST_HD int ostx_jacColumnsSplit(ostJacWork* wk, const ostdStep* st, const double* lam, int ny,
-                                double* G, int ncol, double* r2, int rows_ready) {
+                                double* G, int ncol, double* r2, int rows_ready, int t, int nt,
+                                double* Rq, double* T) {
   ostModel* m = wk->m;
   ostWorld* w = &wk->w;
   int nq = m->s.nq, nv = m->s.nv, nu = m->s.nu, na = m->s.na, nrow = ny - nv;
@@ -350,163 +356,152 @@ OST_HD int ostx_jacColumnsSplit(ostJacWork* wk, const ostdStep* st, const double
     *r2 = 0;
     for (int i = 0; i < ny; i++) *r2 += wk->R[i].v * wk->R[i].v;
   }
-  for (size_t i = 0; i < (size_t)(ny + nx) * ncol; i++) G[i] = 0;
 
+#define OSTX_CEIL(n) (((n) + C - 1) / C)
 #define OSTX_COLUMN(c, k) \
   for (int i_ = 0; i_ < ny; i_++) G[(size_t)i_ * ncol + (c)] = wk->R[i_].d[k]
-
-  // y = (u, lambda): the dynamics rows are linear, Mt (u - u-) - h J' lambda, so their columns
-  // are Mt's and -h J's; the constraint rows by the residual alone
-  for (int i = 0; i < nv; i++) {
-    for (int j = 0; j < nv; j++) G[(size_t)i * ncol + j] = (double)wk->M0[(size_t)i * nv + j];
-    for (int r = 0; r < nrow; r++) {
-      G[(size_t)i * ncol + nv + r] = -(double)h * (double)w->J[(size_t)r * nv + i];
-    }
-  }
-  // J u moves with the u columns only: made again in their chunks and in the first chunk after
-  // them (without seeds), kept in the multipliers' chunks after that
-  for (int c0 = 0; c0 < ny; c0 += C) {
-    for (int k = 0; k < C && c0 + k < ny; k++) {
-      int c = c0 + k;
-      if (c < nv) wk->u[c].d[k] = 1; else wk->lambda[c - nv].d[k] = 1;
-    }
-    osti_residualRowsJu(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R + nv,
-                        c0 < nv + C);
-    for (int k = 0; k < C && c0 + k < ny; k++) {
-      int c = c0 + k;
-      for (int i = nv; i < ny; i++) G[(size_t)i * ncol + c] = wk->R[i].d[k];
-      if (c < nv) wk->u[c] = (double)wk->u[c]; else wk->lambda[c - nv] = (double)wk->lambda[c - nv];
-    }
-  }
-
-  // u-: f and the dynamics rows (the constraint rows do not read u-)
-  for (int c0 = 0; c0 < nv; c0 += C) {
-    for (int k = 0; k < C && c0 + k < nv; k++) wk->uprev[c0 + k].d[k] = 1;
-    for (int i = 0; i < nv; i++) w->qvel_prev[i] = wk->uprev[i];
-    osti_nativeStartVel(m, &wk->km, w, wk->qpos, wk->uprev, wk->input, wk->qfrc, wk->xfrc, h);
-    osti_residualDynamics(w, wk->M0, wk->u, wk->lambda, wk->R);
-    for (int k = 0; k < C && c0 + k < nv; k++) {
-      int c = c0 + k;
-      for (int i = 0; i < nv; i++) G[(size_t)i * ncol + ny + nv + c] = wk->R[i].d[k];
-      wk->uprev[c] = (double)wk->uprev[c];
-    }
-  }
-  for (int i = 0; i < nv; i++) w->qvel_prev[i] = wk->uprev[i];
-
-  // act- and ctrl: act+, the inputs, f and the servo rows
-  for (int c0 = 0; c0 < na + nu; c0 += C) {
-    for (int k = 0; k < C && c0 + k < na + nu; k++) {
-      int c = c0 + k;
-      if (c < na) wk->act[c].d[k] = 1; else wk->ctrl[c - na].d[k] = 1;
-    }
-    osti_actuation(m, wk->ctrl, wk->act, h, wk->act_next, wk->input);
-    for (int i = 0; i < nv; i++) w->qfrc_explicit[i] = wk->fp0[i];
-    osti_nativeActuatorForces(m, &wk->km, w->qfrc_explicit, wk->uprev, wk->input);
-    osti_nativeServoRows(m, &wk->k, w, wk->input, h);
-    osti_residualDynamics(w, wk->M0, wk->u, wk->lambda, wk->R);
-    osti_residualRowsJu(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R + nv,
-                        ny < nv + C);  // J u without seeds since the y chunks (if one followed u's)
-    for (int k = 0; k < C && c0 + k < na + nu; k++) {
-      int c = c0 + k;
-      OSTX_COLUMN(ny + 2 * nv + c, k);
-      for (int i = 0; i < na; i++) {
-        G[(size_t)(ny + 2 * nv + i) * ncol + ny + 2 * nv + c] = wk->act_next[i].d[k];
+  enum { Y, UM, AC, DQ, TH, GEO, TT, NKIND };
+  int nunit[NKIND] = {OSTX_CEIL(ny), OSTX_CEIL(nv), OSTX_CEIL(na + nu), OSTX_CEIL(nv),
+                      OSTX_CEIL(np), OSTX_CEIL(nv), OSTX_CEIL(2 * nv)};
+  int ju_seeded = 0;  // w->Ju holds derivatives by u (a Y unit's), so J u must be made again
+  for (int kind = 0, first = 0; kind < NKIND; first += nunit[kind++]) {
+    for (int unit = first + ((t - first) % nt + nt) % nt; unit < first + nunit[kind]; unit += nt) {
+      int c0 = (unit - first) * C;
+      switch (kind) {
+      case Y: {  // the dynamics rows' columns are Mt's and -h J's; the constraint rows by R
+        int has_u = c0 < nv;
+        for (int k = 0; k < C && c0 + k < ny; k++) {
+          int c = c0 + k;
+          if (c < nv) wk->u[c].d[k] = 1; else wk->lambda[c - nv].d[k] = 1;
+          for (int i = 0; i < nv; i++) {
+            G[(size_t)i * ncol + c] = c < nv ? (double)wk->M0[(size_t)i * nv + c]
+                                             : -(double)h * (double)w->J[(size_t)(c - nv) * nv + i];
+          }
+        }
+        osti_residualRowsJu(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R + nv,
+                            has_u || ju_seeded);
+        ju_seeded = has_u;
+        for (int k = 0; k < C && c0 + k < ny; k++) {
+          int c = c0 + k;
+          for (int i = nv; i < ny; i++) G[(size_t)i * ncol + c] = wk->R[i].d[k];
+          if (c < nv) wk->u[c] = (double)wk->u[c]; else wk->lambda[c - nv] = (double)wk->lambda[c - nv];
+        }
+        break;
       }
-      if (c < na) wk->act[c] = (double)wk->act[c]; else wk->ctrl[c - na] = (double)wk->ctrl[c - na];
-    }
-  }
-  osti_actuation(m, wk->ctrl, wk->act, h, wk->act_next, wk->input);
-  osti_nativeServoRows(m, &wk->k, w, wk->input, h);
-
-  // dq-: the start at q- (+) dq- with q+ held; Mt moves the factor and the row diagonal
-  for (int c0 = 0; c0 < nv; c0 += C) {
-    for (int i = 0; i < nq; i++) wk->qpos[i] = st->qpos_prev[i];
-    for (int k = 0; k < C && c0 + k < nv; k++) wk->dqm[c0 + k].d[k] = 1;
-    osti_integratePos(m, wk->qpos, wk->dqm, 1);
-    osti_nativeStart(m, &wk->km, w, wk->qpos, wk->uprev, wk->input, wk->qfrc, wk->xfrc, h);
-    osti_stepResidual(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R);
-    for (int k = 0; k < C && c0 + k < nv; k++) {
-      OSTX_COLUMN(ny + c0 + k, k);
-      wk->dqm[c0 + k] = 0;
-    }
-  }
-
-  // theta: everything, q+ held
-  for (int c0 = 0; c0 < np; c0 += C) {
-    ostx_clearParamSeeds(m);
-    for (int k = 0; k < C && c0 + k < np; k++) ostx_seedParam(m, st, c0 + k, k);
-    for (int i = 0; i < nq; i++) wk->qpos[i] = st->qpos_prev[i];
-    osti_integratePos(m, wk->qpos, wk->dqm, 1);
-    osti_nativeStart(m, &wk->km, w, wk->qpos, wk->uprev, wk->input, wk->qfrc, wk->xfrc, h);
-    for (int i = 0; i < nq; i++) wk->qplus[i] = wk->qref[i];
-    if (osti_nativeIterate(m, &wk->k, w, wk->qplus, wk->input, st->lookahead, h)
-        || w->nrow != nrow) {
-      ostx_clearParamSeeds(m);
-      return 2;
-    }
-    if (st->truncate) {  // contact J held (its derivative by the friction scale dropped)
-      osti_tangentLinear(m, wk->dqp, wk->qplus, wk->qref);
-      osti_truncateContacts(w, wk->dqp);
-    }
-    osti_stepResidual(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R);
-    for (int k = 0; k < C && c0 + k < np; k++) OSTX_COLUMN(ny + nx + nu + c0 + k, k);
-  }
-  if (np > 0) {
-    ostx_clearParamSeeds(m);
-  }
-
-  // dR/dq+: the rows at q+ (+) delta (delta in dq-'s storage), the start held
-  for (int c0 = 0; c0 < nv; c0 += C) {
-    for (int i = 0; i < nq; i++) wk->qplus[i] = wk->qref[i];
-    for (int k = 0; k < C && c0 + k < nv; k++) wk->dqm[c0 + k].d[k] = 1;
-    osti_integratePos(m, wk->qplus, wk->dqm, 1);
-    if (osti_nativeIterate(m, &wk->k, w, wk->qplus, wk->input, st->lookahead, h)
-        || w->nrow != nrow) {
-      return 2;
-    }
-    if (st->truncate) {
-      osti_tangentLinear(m, wk->dqp, wk->qplus, wk->qref);
-      osti_truncateContacts(w, wk->dqp);
-    }
-    for (int i = 0; i < nv * nv; i++) w->M[i] = wk->M0[i];
-    for (int i = 0; i < nv; i++) w->qfrc_explicit[i] = wk->f0[i];
-    osti_stepResidual(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R);
-    for (int k = 0; k < C && c0 + k < nv; k++) {
-      for (int i = 0; i < ny; i++) wk->Rq[(size_t)i * nv + c0 + k] = wk->R[i].d[k];
-      wk->dqm[c0 + k] = 0;
-    }
-  }
-
-  // T = d(dq+)/d(u, dq-): the exponential maps alone
-  for (int c0 = 0; c0 < 2 * nv; c0 += C) {
-    for (int k = 0; k < C && c0 + k < 2 * nv; k++) {
-      int c = c0 + k;
-      if (c < nv) wk->u[c].d[k] = 1; else wk->dqm[c - nv].d[k] = 1;
-    }
-    for (int i = 0; i < nq; i++) wk->qplus[i] = st->qpos_prev[i];
-    osti_integratePos(m, wk->qplus, wk->dqm, 1);
-    osti_integratePos(m, wk->qplus, wk->u, h);
-    osti_tangentLinear(m, wk->dqp, wk->qplus, wk->qref);
-    for (int k = 0; k < C && c0 + k < 2 * nv; k++) {
-      int c = c0 + k;
-      for (int i = 0; i < nv; i++) wk->T[(size_t)i * 2 * nv + c] = wk->dqp[i].d[k];
-      if (c < nv) wk->u[c] = (double)wk->u[c]; else wk->dqm[c - nv] = 0;
+      case UM: {  // f and the dynamics rows (the constraint rows do not read u-)
+        for (int k = 0; k < C && c0 + k < nv; k++) wk->uprev[c0 + k].d[k] = 1;
+        for (int i = 0; i < nv; i++) w->qvel_prev[i] = wk->uprev[i];
+        osti_nativeStartVel(m, &wk->km, w, wk->qpos, wk->uprev, wk->input, wk->qfrc, wk->xfrc, h);
+        osti_residualDynamics(w, wk->M0, wk->u, wk->lambda, wk->R);
+        for (int k = 0; k < C && c0 + k < nv; k++) {
+          int c = ny + nv + c0 + k;
+          for (int i = 0; i < ny; i++) G[(size_t)i * ncol + c] = i < nv ? wk->R[i].d[k] : 0;
+          wk->uprev[c0 + k] = (double)wk->uprev[c0 + k];
+        }
+        for (int i = 0; i < nv; i++) w->qvel_prev[i] = wk->uprev[i];
+        break;
+      }
+      case AC: {  // act+, the inputs, the actuators' forces and the servo rows
+        for (int k = 0; k < C && c0 + k < na + nu; k++) {
+          int c = c0 + k;
+          if (c < na) wk->act[c].d[k] = 1; else wk->ctrl[c - na].d[k] = 1;
+        }
+        osti_actuation(m, wk->ctrl, wk->act, h, wk->act_next, wk->input);
+        for (int i = 0; i < nv; i++) w->qfrc_explicit[i] = wk->fp0[i];
+        osti_nativeActuatorForces(m, &wk->km, w->qfrc_explicit, wk->uprev, wk->input);
+        osti_nativeServoRows(m, &wk->k, w, wk->input, h);
+        osti_residualDynamics(w, wk->M0, wk->u, wk->lambda, wk->R);
+        osti_residualRowsJu(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R + nv,
+                            ju_seeded);
+        ju_seeded = 0;
+        for (int k = 0; k < C && c0 + k < na + nu; k++) {
+          int c = c0 + k;
+          OSTX_COLUMN(ny + 2 * nv + c, k);
+          for (int i = 0; i < na; i++) {
+            G[(size_t)(ny + 2 * nv + i) * ncol + ny + 2 * nv + c] = wk->act_next[i].d[k];
+          }
+          if (c < na) wk->act[c] = (double)wk->act[c]; else wk->ctrl[c - na] = (double)wk->ctrl[c - na];
+        }
+        osti_actuation(m, wk->ctrl, wk->act, h, wk->act_next, wk->input);
+        osti_nativeServoRows(m, &wk->k, w, wk->input, h);
+        break;
+      }
+      case DQ: {  // the start at q- (+) dq- with q+ held; Mt moves the factor and the diagonal
+        for (int i = 0; i < nq; i++) wk->qpos[i] = st->qpos_prev[i];
+        for (int k = 0; k < C && c0 + k < nv; k++) wk->dqm[c0 + k].d[k] = 1;
+        osti_integratePos(m, wk->qpos, wk->dqm, 1);
+        osti_nativeStart(m, &wk->km, w, wk->qpos, wk->uprev, wk->input, wk->qfrc, wk->xfrc, h);
+        osti_stepResidual(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R);
+        for (int k = 0; k < C && c0 + k < nv; k++) {
+          OSTX_COLUMN(ny + c0 + k, k);
+          wk->dqm[c0 + k] = 0;
+        }
+        break;
+      }
+      case TH: {  // everything, q+ held
+        for (int k = 0; k < C && c0 + k < np; k++) ostx_seedParam(m, st, c0 + k, k);
+        for (int i = 0; i < nq; i++) wk->qpos[i] = st->qpos_prev[i];
+        osti_integratePos(m, wk->qpos, wk->dqm, 1);
+        osti_nativeStart(m, &wk->km, w, wk->qpos, wk->uprev, wk->input, wk->qfrc, wk->xfrc, h);
+        for (int i = 0; i < nq; i++) wk->qplus[i] = wk->qref[i];
+        int rc = osti_nativeIterate(m, &wk->k, w, wk->qplus, wk->input, st->lookahead, h);
+        if (!rc && w->nrow == nrow && st->truncate) {
+          // contact J held (its derivative by the friction scale dropped)
+          osti_tangentLinear(m, wk->dqp, wk->qplus, wk->qref);
+          osti_truncateContacts(w, wk->dqp);
+        }
+        if (!rc && w->nrow == nrow) {
+          osti_stepResidual(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R);
+        }
+        ostx_clearParamSeeds(m);
+        if (rc || w->nrow != nrow) {
+          return 2;
+        }
+        for (int k = 0; k < C && c0 + k < np; k++) OSTX_COLUMN(ny + nx + nu + c0 + k, k);
+        break;
+      }
+      case GEO: {  // the rows at q+ (+) delta (delta in dq-'s storage), the start held
+        for (int i = 0; i < nq; i++) wk->qplus[i] = wk->qref[i];
+        for (int k = 0; k < C && c0 + k < nv; k++) wk->dqm[c0 + k].d[k] = 1;
+        osti_integratePos(m, wk->qplus, wk->dqm, 1);
+        if (osti_nativeIterate(m, &wk->k, w, wk->qplus, wk->input, st->lookahead, h)
+            || w->nrow != nrow) {
+          return 2;
+        }
+        if (st->truncate) {
+          osti_tangentLinear(m, wk->dqp, wk->qplus, wk->qref);
+          osti_truncateContacts(w, wk->dqp);
+        }
+        for (int i = 0; i < nv * nv; i++) w->M[i] = wk->M0[i];
+        for (int i = 0; i < nv; i++) w->qfrc_explicit[i] = wk->f0[i];
+        osti_stepResidual(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R);
+        for (int k = 0; k < C && c0 + k < nv; k++) {
+          for (int i = 0; i < ny; i++) Rq[(size_t)i * nv + c0 + k] = wk->R[i].d[k];
+          wk->dqm[c0 + k] = 0;
+        }
+        break;
+      }
+      default: {  // TT: the exponential maps alone
+        for (int k = 0; k < C && c0 + k < 2 * nv; k++) {
+          int c = c0 + k;
+          if (c < nv) wk->u[c].d[k] = 1; else wk->dqm[c - nv].d[k] = 1;
+        }
+        for (int i = 0; i < nq; i++) wk->qplus[i] = st->qpos_prev[i];
+        osti_integratePos(m, wk->qplus, wk->dqm, 1);
+        osti_integratePos(m, wk->qplus, wk->u, h);
+        osti_tangentLinear(m, wk->dqp, wk->qplus, wk->qref);
+        for (int k = 0; k < C && c0 + k < 2 * nv; k++) {
+          int c = c0 + k;
+          for (int i = 0; i < nv; i++) T[(size_t)i * 2 * nv + c] = wk->dqp[i].d[k];
+          if (c < nv) wk->u[c] = (double)wk->u[c]; else wk->dqm[c - nv] = 0;
+        }
+        break;
+      }
+      }
     }
   }
 #undef OSTX_COLUMN
-
-  // the chain rule through q+ for u and dq-, and the outputs dq+ = T (u, dq-), u+ = u
-  for (int c = 0; c < 2 * nv; c++) {
-    int col = c < nv ? c : ny + c - nv;
-    for (int i = 0; i < ny; i++) {
-      const double* rq = wk->Rq + (size_t)i * nv;
-      double s = 0;
-      for (int j = 0; j < nv; j++) s += rq[j] * wk->T[(size_t)j * 2 * nv + c];
-      G[(size_t)i * ncol + col] += s;
-    }
-    for (int i = 0; i < nv; i++) G[(size_t)(ny + i) * ncol + col] = wk->T[(size_t)i * 2 * nv + c];
-  }
-  for (int i = 0; i < nv; i++) G[(size_t)(ny + nv + i) * ncol + i] = 1;
+#undef OSTX_CEIL
   return 0;
 }
 
@@ -515,8 +510,8 @@ OST_HD int ostx_jacColumnsSplit(ostJacWork* wk, const ostdStep* st, const double
 // chunk; n = nv + the count of the rows at q+. G ((n + 2 nv + na) x ncol, row-major, ncol = n +
 // 2 nv + na + nu + nparam) receives the rows R (n) then O = (dq+, u+, act+) (2 nv + na),
 // differentiated by the columns y = (u, lambda) (n) then xi = (dq-, u-, act-, ctrl, theta).
-// *resid gets |R| at the solution. dense: every column through the whole evaluation (the
-// oracle, ostx_jacColumns), else ostx_jacColumnsSplit. Returns 0, 1 if G needs more than G_cap
+// *resid gets |R| at the solution. dense: 1 every column through the whole evaluation (the
+// oracle, ostx_jacColumns), 0 ostx_jacColumnsSplit (2: split as 3 threads, for tests). Returns 0, 1 if G needs more than G_cap
 // doubles (*n still set), 2 if the rows overflow or differ between evaluations.
 OST_HD int ostx_stepJacobian(ostJacWork* wk, const ostdStep* st, double* G, size_t G_cap,
                              int* n_out, double* resid, int dense) {
@@ -530,9 +525,21 @@ OST_HD int ostx_stepJacobian(ostJacWork* wk, const ostdStep* st, double* G, size
     return 1;
   }
   double r2 = 0;
-  if (dense ? ostx_jacColumns(wk, st, NULL, ny, 0, OSTX_CHUNK, G, ncol, &r2)
-            : ostx_jacColumnsSplit(wk, st, NULL, ny, G, ncol, &r2, 1)) {
-    return 2;
+  if (dense == 1) {
+    if (ostx_jacColumns(wk, st, NULL, ny, 0, OSTX_CHUNK, G, ncol, &r2)) {
+      return 2;
+    }
+  } else {
+    // the split passes, in one thread (dense == 2: as 3 threads one after another, in this
+    // work, for the tests); the first reuses the structure pass's rows
+    int nt = dense == 2 ? 3 : 1;
+    for (int t = 0; t < nt; t++) {
+      if (ostx_jacColumnsSplit(wk, st, NULL, ny, G, ncol, t == 0 ? &r2 : NULL, t == 0, t, nt,
+                               wk->Rq, wk->T)) {
+        return 2;
+      }
+    }
+    osti_jacAssemble(G, ncol, ny, wk->m->s.nv, wk->m->s.na, wk->m->s.nu, wk->Rq, wk->T);
   }
   *resid = sqrt(r2);
   return 0;
@@ -575,16 +582,16 @@ OST_HD void ostx_recordStructure(ostModel* m, const ostAdjointLayout* A, char* l
 }
 
 
-// 3b: the record's Jacobian into the lane's G by the split passes (ostx_jacColumnsSplit) in the
-// dual work block `work` (NULL: the lane's own; the rows are made again, as 3a's world struct is
-// gone); one thread per lane (A->njac = 1: the passes share their base evaluation). OST_STEP_OVERFLOW if the rows differ
+// 3b: thread t of A->njac of the record's split passes (ostx_jacColumnsSplit) into the lane's
+// G, Rq and T, in the dual work block `work` (NULL: the lane's own; the rows are made again, as
+// 3a's world struct is gone); 3c assembles G (osti_jacAssemble). OST_STEP_OVERFLOW if the rows differ
 // from the structure pass's.
 OST_HD void ostx_recordColumns(ostModel* m, const ostAdjointLayout* A, char* lanes, int l, int t,
                                int j, const ostAdjointSettings* as, char* work) {
   ostAdjointLane al;
   ostu_adjointLane(&al, A, lanes, l);
   int ny = al.info[OST_ADJ_NY];
-  if (ny == 0 || t != 0) {
+  if (ny == 0) {
     return;
   }
   ostStepRec r;
@@ -593,7 +600,7 @@ OST_HD void ostx_recordColumns(ostModel* m, const ostAdjointLayout* A, char* lan
   ostJacWork jw;
   ostx_jacWorkInit(&jw, work ? work : al.jac, m, A->nrow_max);
   int ncol = ny + 2 * A->s.nv + A->s.na + A->s.nu;
-  if (ostx_jacColumnsSplit(&jw, &st, al.lam, ny, al.G, ncol, NULL, 0)) {
+  if (ostx_jacColumnsSplit(&jw, &st, al.lam, ny, al.G, ncol, NULL, 0, t, A->njac, al.Rq, al.T)) {
     al.info[OST_ADJ_FAILED] = OST_STEP_OVERFLOW;
   }
 }

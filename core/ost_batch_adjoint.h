@@ -7,8 +7,9 @@
 //   2 osti_adjointReplay   replay segment k from its checkpoint, recording each committed
 //                          substep (state, controls, rows, multipliers)
 //   3 on record j from the end of the segment: ostx_recordStructure and ostx_recordColumns
-//                          (ost_adjoint_jacobian.h, dual build, one thread per lane) give
-//                          the step's exact Jacobian, and
+//                          (ost_adjoint_jacobian.h, dual build; the split passes' units may
+//                          be spread over A->njac threads) give the step's exact Jacobian,
+//                          and
 //                          osti_recordSolve the implicit function theorem
 //   4 osti_adjointFinish   the cotangents of the start state; NaN for a failed world
 // Phase 2 and 3 run for k = nseg - 1 .. 0. The replay takes the forward pass's exact steps (same
@@ -101,7 +102,7 @@ OST_HD void osti_adjointReplay(const ostModel* m, const ostBatchLayout* L,
 
 
 // phase 3c: the implicit function theorem on the record whose Jacobian phases 3a and 3b left in
-// lane l's G: g, the cotangent of its (q+, u+), becomes that of its (q-, u-), and its controls'
+// lane l's G (completed here, osti_jacAssemble): g, the cotangent of its (q+, u+), becomes that of its (q-, u-), and its controls'
 // cotangent accumulates into gctrl ((T x nworld x nu), or NULL); OST_STEP_NAN if singular
 OST_HD void osti_recordSolve(const ostAdjointLayout* A, char* lanes, int l, int i, int nworld,
                              int j, double* gctrl) {
@@ -114,6 +115,7 @@ OST_HD void osti_recordSolve(const ostAdjointLayout* A, char* lanes, int l, int 
   ostStepRec r;
   ostu_recordAt(&r, A, &al, j);
   int ncol = ny + nx + nu;
+  osti_jacAssemble(al.G, ncol, ny, A->s.nv, A->s.na, nu, al.Rq, al.T);
   if (osti_adjointSolve(al.G, ny, nx, ncol, al.K, al.piv, al.w, al.g, al.gxi)) {
     al.info[OST_ADJ_FAILED] = OST_STEP_NAN;  // singular Jacobian
     return;

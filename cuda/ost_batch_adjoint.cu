@@ -2,10 +2,12 @@
 // ost_batch_gpu.h): core/ compiled with ostNum = ostDual<OSTX_CHUNK>, as plugin/ost_adjoint_dual.cc
 // is for the CPU, and a kernel of GPU thread per world running core/ost_adjoint_jacobian.h's
 // phases 3a and 3b of the backward pass (core/ost_adjoint_jacobian.h): a record's structure
-// pass, then its columns by the split passes, one thread per world (A->njac = 1). The double
-// half (replay, checkpoints, records, the solve of phase 3c) is ost_batch.cu.
+// pass, one thread per world, then the units of its split passes spread over A->njac threads
+// per world, so that a few thousand worlds still fill the GPU. The double half (replay,
+// checkpoints, records, the assembly and solve of phase 3c) is ost_batch.cu.
 // Invariant: a thread reads the shared dual model and writes only its lane (3b: its own dual
-// work and the lane's G); no parameters are seeded, so the model is never written.
+// work and its units' columns of the lane's G, Rq and T); no parameters are seeded, so the model
+// is never written.
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>

@@ -23,10 +23,11 @@
 #define OST_CUDA_ADJOINT_LANES 16384
 
 // GPU threads per record's Jacobian (phase 3b), each in a dual work of the pool (as many works
-// as the device holds threads of that kernel): one, since the split passes
-// (core/ost_adjoint_jacobian.h, ostx_jacColumnsSplit) share their base evaluation. On the CPU a
-// world's records stay on its thread.
-#define OST_CUDA_JAC_THREADS 1
+// as the device holds threads of that kernel), sharing the units of the split passes
+// (core/ost_adjoint_jacobian.h, ostx_jacColumnsSplit; each thread also makes the step's values
+// once): 8,192 worlds alone leave most of the GPU idle. On the CPU a world's records stay on its
+// thread.
+#define OST_CUDA_JAC_THREADS 6
 
 // substeps a backward segment of S steps may record: 2 S + 8 (a step split once takes 2, a
 // step split three levels deep 8)

@@ -112,7 +112,8 @@ typedef struct ostContext_ {
   size_t         rec_cap;         // capacity of rec_buf in bytes
   void*          adj_work;        // dual-number work block of the adjoint
   int            adj_oracle;      // 1: the dense dual Jacobian per record (tests' oracle),
-                                  // 0: the split passes (ostx_jacColumnsSplit, the default)
+                                  // 0: the split passes (ostx_jacColumnsSplit, the default),
+                                  // 2: the split passes as 3 threads in turn (tests)
   const void*    adj_model_block; // native_block it was made for
   int*           adj_fric_geom;   // per packed pair: geoms whose friction it takes (2 each)
   mjtNum*        adj_fric_weight; // their weights
