@@ -485,8 +485,8 @@ OST_HD void osti_jacAssemble(double* G, int ncol, int ny, int nv, int na, int nu
     double* g = G + (size_t)(ny + r) * ncol;
     for (int col = 0; col < ncol; col++) {
       if (r < nv) {          // dq+
-        g[col] = col < nv ? T[(size_t)r * 2 * nv + col]
-                          : (col >= ny && col < ny + nv ? T[(size_t)r * 2 * nv + nv + col - ny] : 0);
+        const double* Tr = T + (size_t)r * 2 * nv;
+        g[col] = col < nv ? Tr[col] : (col >= ny && col < ny + nv ? Tr[nv + col - ny] : 0);
       } else if (r < 2 * nv) {  // u+
         g[col] = col == r - nv ? 1 : 0;
       } else if (col < ac0 || col >= ac1) {  // act+ (explicit in act- and ctrl only)

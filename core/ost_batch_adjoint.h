@@ -102,8 +102,9 @@ OST_HD void osti_adjointReplay(const ostModel* m, const ostBatchLayout* L,
 
 
 // phase 3c: the implicit function theorem on the record whose Jacobian phases 3a and 3b left in
-// lane l's G (completed here, osti_jacAssemble): g, the cotangent of its (q+, u+), becomes that of its (q-, u-), and its controls'
-// cotangent accumulates into gctrl ((T x nworld x nu), or NULL); OST_STEP_NAN if singular
+// lane l's G (completed here, osti_jacAssemble): g, the cotangent of its (q+, u+), becomes that
+// of its (q-, u-), and its controls' cotangent accumulates into gctrl ((T x nworld x nu), or
+// NULL); OST_STEP_NAN if singular
 OST_HD void osti_recordSolve(const ostAdjointLayout* A, char* lanes, int l, int i, int nworld,
                              int j, double* gctrl) {
   ostAdjointLane al;

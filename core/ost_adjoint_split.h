@@ -1,0 +1,224 @@
+// ost_adjoint_split.h: the split passes of a step's Jacobian (core/README.md eq. 15), each
+// input column through the part of the step it moves; the dense evaluation of
+// ost_adjoint_work.h is their oracle. For a translation unit with ostNum = ostDual<OSTX_CHUNK>.
+// Invariant: reads the step's inputs; writes only the work block and the caller's G, Rq and T
+// (and the model's parameter derivatives while a theta unit runs; cleared after it).
+#ifndef OSTRICH_CORE_OST_ADJOINT_SPLIT_H_
+#define OSTRICH_CORE_OST_ADJOINT_SPLIT_H_
+
+#include "ost_adjoint_work.h"
+
+// The fast path to ostx_jacColumns' G (which stays its oracle): each input column is
+// evaluated through the part of the step that it moves, and its path through
+// q+ = (q- (+) dq-) (+) h u by the chain rule, d/dc = d/dc|q+ held + (dR/dq+) T_c with
+// T = d(dq+)/d(u, dq-), dq+ the tangent of q+ (osti_tangentLinear). After the values (the start
+// at q-, the rows at q+, the residual with its factor and row diagonal), units of OSTX_CHUNK
+// columns of one kind each, in this order:
+//   Y    y = (u, lambda): the dynamics rows in closed form (linear in y), the constraint rows
+//        by the residual alone on the step's factor and row diagonal (cheap)
+//   UM   u-: the start's velocity part (f) and the dynamics rows
+//   AC   act-, ctrl: the inputs (act+), the actuators' forces and the servo rows' fields
+//   DQ   dq-: the start at q- (+) dq- (Mt, f, the row diagonal), q+ held
+//   TH   theta: the whole evaluation, q+ held
+//   GEO  dR/dq+ into Rq ((nv + nrow) x nv): kinematics, collision and rows at q+ (+) delta, nv
+//        directions, the only units through collision
+//   TT   T into T (nv x 2 nv): the exponential maps alone
+// Thread t of nt takes units t, t + nt, .. (each thread its own work, all writing one G, Rq and
+// T: the units' columns are disjoint); a unit leaves the work as the later kinds need it, so a
+// thread's units run in the order above. Written: rows R of every column, act+ rows of the AC
+// columns, Rq and T; osti_jacAssemble then completes G (the chain rule and the outputs' rows).
+// Same inputs and result as ostx_jacColumns with c0 = 0, cstep = OSTX_CHUNK (the columns differ
+// from the oracle's by rounding only, and not at all with nt). rows_ready: this work (the same
+// ostJacWork, not only its block) ran the step's structure pass last, so its rows are reused.
+OST_HD int ostx_jacColumnsSplit(ostJacWork* wk, const ostdStep* st, const double* lam, int ny,
+                                double* G, int ncol, double* r2, int rows_ready, int t, int nt,
+                                double* Rq, double* T) {
+  ostModel* m = wk->m;
+  ostWorld* w = &wk->w;
+  int nq = m->s.nq, nv = m->s.nv, nu = m->s.nu, na = m->s.na, nrow = ny - nv;
+  int np = st->nparam, nx = 2 * nv + na;
+  ostNum h = st->h;
+  const int C = OSTX_CHUNK;
+
+  // the values: start at q-, rows at q+, the residual (factor and diagonal kept)
+  ostx_jacLoad(wk, st, nrow, lam);
+  osti_actuation(m, wk->ctrl, wk->act, h, wk->act_next, wk->input);
+  osti_integratePos(m, wk->qpos, wk->dqm, 1);
+  osti_nativeStartPos(m, &wk->km, w, wk->qpos, h);
+  osti_nativeStartVel(m, &wk->km, w, wk->qpos, wk->uprev, NULL, wk->qfrc, wk->xfrc, h);
+  for (int i = 0; i < nv; i++) wk->fp0[i] = w->qfrc_explicit[i];
+  osti_nativeActuatorForces(m, &wk->km, w->qfrc_explicit, wk->uprev, wk->input);
+  for (int i = 0; i < nv * nv; i++) wk->M0[i] = w->M[i];
+  for (int i = 0; i < nv; i++) wk->f0[i] = w->qfrc_explicit[i];
+  for (int i = 0; i < nq; i++) wk->qplus[i] = wk->qpos[i];
+  osti_integratePos(m, wk->qplus, wk->u, h);
+  for (int i = 0; i < nq; i++) wk->qref[i] = (double)wk->qplus[i];
+  if ((!rows_ready && osti_nativeIterate(m, &wk->k, w, wk->qplus, wk->input, st->lookahead, h))
+      || w->nrow != nrow) {
+    return 2;
+  }
+  for (int i = 0; i < nv; i++) w->qvel_prev[i] = wk->uprev[i];
+  w->h = h;
+  osti_stepResidual(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R);
+  if (r2) {
+    *r2 = 0;
+    for (int i = 0; i < ny; i++) *r2 += wk->R[i].v * wk->R[i].v;
+  }
+
+#define OSTX_CEIL(n) (((n) + C - 1) / C)
+#define OSTX_COLUMN(c, k) \
+  for (int i_ = 0; i_ < ny; i_++) G[(size_t)i_ * ncol + (c)] = wk->R[i_].d[k]
+  enum { Y, UM, AC, DQ, TH, GEO, TT, NKIND };
+  int nunit[NKIND] = {OSTX_CEIL(ny), OSTX_CEIL(nv), OSTX_CEIL(na + nu), OSTX_CEIL(nv),
+                      OSTX_CEIL(np), OSTX_CEIL(nv), OSTX_CEIL(2 * nv)};
+  int ju_seeded = 0;  // w->Ju holds derivatives by u (a Y unit's), so J u must be made again
+  for (int kind = 0, first = 0; kind < NKIND; first += nunit[kind++]) {
+    for (int unit = first + ((t - first) % nt + nt) % nt; unit < first + nunit[kind]; unit += nt) {
+      int c0 = (unit - first) * C;
+      switch (kind) {
+      case Y: {  // the dynamics rows' columns are Mt's and -h J's; the constraint rows by R
+        int has_u = c0 < nv;
+        for (int k = 0; k < C && c0 + k < ny; k++) {
+          int c = c0 + k;
+          if (c < nv) wk->u[c].d[k] = 1; else wk->lambda[c - nv].d[k] = 1;
+          for (int i = 0; i < nv; i++) {
+            G[(size_t)i * ncol + c] = c < nv ? (double)wk->M0[(size_t)i * nv + c]
+                                             : -(double)h * (double)w->J[(size_t)(c - nv) * nv + i];
+          }
+        }
+        osti_residualRowsJu(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R + nv,
+                            has_u || ju_seeded);
+        ju_seeded = has_u;
+        for (int k = 0; k < C && c0 + k < ny; k++) {
+          int c = c0 + k;
+          for (int i = nv; i < ny; i++) G[(size_t)i * ncol + c] = wk->R[i].d[k];
+          if (c < nv) {
+            wk->u[c] = (double)wk->u[c];
+          } else {
+            wk->lambda[c - nv] = (double)wk->lambda[c - nv];
+          }
+        }
+        break;
+      }
+      case UM: {  // f and the dynamics rows (the constraint rows do not read u-)
+        for (int k = 0; k < C && c0 + k < nv; k++) wk->uprev[c0 + k].d[k] = 1;
+        for (int i = 0; i < nv; i++) w->qvel_prev[i] = wk->uprev[i];
+        osti_nativeStartVel(m, &wk->km, w, wk->qpos, wk->uprev, wk->input, wk->qfrc, wk->xfrc, h);
+        osti_residualDynamics(w, wk->M0, wk->u, wk->lambda, wk->R);
+        for (int k = 0; k < C && c0 + k < nv; k++) {
+          int c = ny + nv + c0 + k;
+          for (int i = 0; i < ny; i++) G[(size_t)i * ncol + c] = i < nv ? wk->R[i].d[k] : 0;
+          wk->uprev[c0 + k] = (double)wk->uprev[c0 + k];
+        }
+        for (int i = 0; i < nv; i++) w->qvel_prev[i] = wk->uprev[i];
+        break;
+      }
+      case AC: {  // act+, the inputs, the actuators' forces and the servo rows
+        for (int k = 0; k < C && c0 + k < na + nu; k++) {
+          int c = c0 + k;
+          if (c < na) wk->act[c].d[k] = 1; else wk->ctrl[c - na].d[k] = 1;
+        }
+        osti_actuation(m, wk->ctrl, wk->act, h, wk->act_next, wk->input);
+        for (int i = 0; i < nv; i++) w->qfrc_explicit[i] = wk->fp0[i];
+        osti_nativeActuatorForces(m, &wk->km, w->qfrc_explicit, wk->uprev, wk->input);
+        osti_nativeServoRows(m, &wk->k, w, wk->input, h);
+        osti_residualDynamics(w, wk->M0, wk->u, wk->lambda, wk->R);
+        osti_residualRowsJu(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R + nv,
+                            ju_seeded);
+        ju_seeded = 0;
+        for (int k = 0; k < C && c0 + k < na + nu; k++) {
+          int c = c0 + k;
+          OSTX_COLUMN(ny + 2 * nv + c, k);
+          for (int i = 0; i < na; i++) {
+            G[(size_t)(ny + 2 * nv + i) * ncol + ny + 2 * nv + c] = wk->act_next[i].d[k];
+          }
+          if (c < na) {
+            wk->act[c] = (double)wk->act[c];
+          } else {
+            wk->ctrl[c - na] = (double)wk->ctrl[c - na];
+          }
+        }
+        osti_actuation(m, wk->ctrl, wk->act, h, wk->act_next, wk->input);
+        osti_nativeServoRows(m, &wk->k, w, wk->input, h);
+        break;
+      }
+      case DQ: {  // the start at q- (+) dq- with q+ held; Mt moves the factor and the diagonal
+        for (int i = 0; i < nq; i++) wk->qpos[i] = st->qpos_prev[i];
+        for (int k = 0; k < C && c0 + k < nv; k++) wk->dqm[c0 + k].d[k] = 1;
+        osti_integratePos(m, wk->qpos, wk->dqm, 1);
+        osti_nativeStart(m, &wk->km, w, wk->qpos, wk->uprev, wk->input, wk->qfrc, wk->xfrc, h);
+        osti_stepResidual(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R);
+        for (int k = 0; k < C && c0 + k < nv; k++) {
+          OSTX_COLUMN(ny + c0 + k, k);
+          wk->dqm[c0 + k] = 0;
+        }
+        break;
+      }
+      case TH: {  // everything, q+ held
+        for (int k = 0; k < C && c0 + k < np; k++) ostx_seedParam(m, st, c0 + k, k);
+        for (int i = 0; i < nq; i++) wk->qpos[i] = st->qpos_prev[i];
+        osti_integratePos(m, wk->qpos, wk->dqm, 1);
+        osti_nativeStart(m, &wk->km, w, wk->qpos, wk->uprev, wk->input, wk->qfrc, wk->xfrc, h);
+        for (int i = 0; i < nq; i++) wk->qplus[i] = wk->qref[i];
+        int rc = osti_nativeIterate(m, &wk->k, w, wk->qplus, wk->input, st->lookahead, h);
+        if (!rc && w->nrow == nrow && st->truncate) {
+          // contact J held (its derivative by the friction scale dropped)
+          osti_tangentLinear(m, wk->dqp, wk->qplus, wk->qref);
+          osti_truncateContacts(w, wk->dqp);
+        }
+        if (!rc && w->nrow == nrow) {
+          osti_stepResidual(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R);
+        }
+        ostx_clearParamSeeds(m);
+        if (rc || w->nrow != nrow) {
+          return 2;
+        }
+        for (int k = 0; k < C && c0 + k < np; k++) OSTX_COLUMN(ny + nx + nu + c0 + k, k);
+        break;
+      }
+      case GEO: {  // the rows at q+ (+) delta (delta in dq-'s storage), the start held
+        for (int i = 0; i < nq; i++) wk->qplus[i] = wk->qref[i];
+        for (int k = 0; k < C && c0 + k < nv; k++) wk->dqm[c0 + k].d[k] = 1;
+        osti_integratePos(m, wk->qplus, wk->dqm, 1);
+        if (osti_nativeIterate(m, &wk->k, w, wk->qplus, wk->input, st->lookahead, h)
+            || w->nrow != nrow) {
+          return 2;
+        }
+        if (st->truncate) {
+          osti_tangentLinear(m, wk->dqp, wk->qplus, wk->qref);
+          osti_truncateContacts(w, wk->dqp);
+        }
+        for (int i = 0; i < nv * nv; i++) w->M[i] = wk->M0[i];
+        for (int i = 0; i < nv; i++) w->qfrc_explicit[i] = wk->f0[i];
+        osti_stepResidual(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R);
+        for (int k = 0; k < C && c0 + k < nv; k++) {
+          for (int i = 0; i < ny; i++) Rq[(size_t)i * nv + c0 + k] = wk->R[i].d[k];
+          wk->dqm[c0 + k] = 0;
+        }
+        break;
+      }
+      default: {  // TT: the exponential maps alone
+        for (int k = 0; k < C && c0 + k < 2 * nv; k++) {
+          int c = c0 + k;
+          if (c < nv) wk->u[c].d[k] = 1; else wk->dqm[c - nv].d[k] = 1;
+        }
+        for (int i = 0; i < nq; i++) wk->qplus[i] = st->qpos_prev[i];
+        osti_integratePos(m, wk->qplus, wk->dqm, 1);
+        osti_integratePos(m, wk->qplus, wk->u, h);
+        osti_tangentLinear(m, wk->dqp, wk->qplus, wk->qref);
+        for (int k = 0; k < C && c0 + k < 2 * nv; k++) {
+          int c = c0 + k;
+          for (int i = 0; i < nv; i++) T[(size_t)i * 2 * nv + c] = wk->dqp[i].d[k];
+          if (c < nv) wk->u[c] = (double)wk->u[c]; else wk->dqm[c - nv] = 0;
+        }
+        break;
+      }
+      }
+    }
+  }
+#undef OSTX_COLUMN
+#undef OSTX_CEIL
+  return 0;
+}
+
+#endif  // OSTRICH_CORE_OST_ADJOINT_SPLIT_H_
