@@ -42,6 +42,8 @@ typedef struct adjRow_ {          // one model's measurements (microseconds per 
   double fwd_us, tape_us, bwd_us, mj_us, fd_us;
   double bytes_per_step;
   long unconverged;               // Ostrich steps that returned a warning
+  long mj_warnings;               // MuJoCo's warnings in its runs (mjData.warning, e.g. an
+                                  // unstable simulation reset): its timings are then of that run
   char msg[CLI_MSG_SZ];           // why the backward pass failed ("" if it did not)
 } adjRow;
 
@@ -151,6 +153,10 @@ static int measure(const char* path, const adjArgs* a, adjRow* r) {
       mj_step(m, dm);
     }
     t[3 * R + rep] = (cli_now() - t0) / n;
+    long mj_step_warnings = 0;
+    for (int w = 0; w < mjNWARNING; w++) {
+      mj_step_warnings += dm->warning[w].number;
+    }
     cli_resetStart(m, dm, a->key);
     long nfd = n < 50 ? n : 50;  // the Jacobians cost 2 nx + 2 nu steps each: fewer of them
     t0 = cli_now();
@@ -160,6 +166,10 @@ static int measure(const char* path, const adjArgs* a, adjRow* r) {
       mj_step(m, dm);
     }
     t[4 * R + rep] = (cli_now() - t0) / nfd - t[3 * R + rep];
+    r->mj_warnings = mj_step_warnings;
+    for (int w = 0; w < mjNWARNING; w++) {
+      r->mj_warnings += dm->warning[w].number;
+    }
     if (cli_progress()) {
       fprintf(stderr, "bench adjoint: %s rollout %ld of %ld\n", path, rep + 1, R);
     }
@@ -197,7 +207,8 @@ static void usage(void) {
          "mj_step_us,\n"
          "transitionFD_us, fd_over_bwd (per step), fd_over_bwd_sim (per simulated second:\n"
          "transitionFD_us / mj_timestep over bwd_us / h), tape_bytes_per_step, unconverged,\n"
-         "error.\n\noptions:\n");
+         "mujoco_warnings (MuJoCo's warnings in its runs of the last repetition, e.g. an\n"
+         "unstable simulation it reset: its timings are then of that run), error.\n\noptions:\n");
   cli_printOptions(stdout, kOptions, NOPTION);
   cli_printHelpOption(stdout);
 }
@@ -238,9 +249,12 @@ int bench_adjoint_main(int argc, char** argv) {
             "bytes/st");
     for (int i = 0; i < npath; i++) {
       adjRow* r = rows + i;
-      fprintf(stderr, "%-36s %4d %7.4f %9.1f %9.1f %9.1f %7.2f %9.1f %9.1f %7.2f %9.1f %9.0f %s\n",
+      fprintf(stderr,
+              "%-36s %4d %7.4f %9.1f %9.1f %9.1f %7.2f %9.1f %9.1f %7.2f %9.1f %9.0f %s%s\n",
               r->path, r->nv, r->h, r->fwd_us, r->tape_us, r->bwd_us, r->bwd_us / r->fwd_us,
-              r->mj_us, r->fd_us, r->fd_us / r->bwd_us, simRatio(r), r->bytes_per_step, r->msg);
+              r->mj_us, r->fd_us, r->fd_us / r->bwd_us, simRatio(r), r->bytes_per_step, r->msg,
+              r->mj_warnings ? " (MuJoCo warned: unstable or reset, its timings are of that run)"
+                             : "");
     }
   }
   printf("{\"steps\":%ld,\"repeat\":%ld,\"models\":[", a.steps, a.repeat);
@@ -259,7 +273,8 @@ int bench_adjoint_main(int argc, char** argv) {
       printf(",\"%s\":", k[q]);
       cli_jsonNumber(stdout, v[q]);
     }
-    printf(",\"unconverged\":%ld,\"error\":", r->unconverged);
+    printf(",\"unconverged\":%ld,\"mujoco_warnings\":%ld,\"error\":", r->unconverged,
+           r->mj_warnings);
     cli_jsonString(stdout, r->msg);
     printf("}");
   }
@@ -271,13 +286,14 @@ int bench_adjoint_main(int argc, char** argv) {
       return CLI_FAIL;
     }
     fprintf(f, "model,nv,nu,h,mj_timestep,fwd_us,tape_us,bwd_us,bwd_over_fwd,mj_step_us,"
-               "transitionFD_us,fd_over_bwd,fd_over_bwd_sim,tape_bytes_per_step,unconverged\n");
+               "transitionFD_us,fd_over_bwd,fd_over_bwd_sim,tape_bytes_per_step,unconverged,"
+               "mujoco_warnings\n");
     for (int i = 0; i < npath; i++) {
       adjRow* r = rows + i;
-      fprintf(f, "%s,%d,%d,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%ld\n", r->path,
-              r->nv, r->nu, r->h, r->mj_h, r->fwd_us, r->tape_us, r->bwd_us,
+      fprintf(f, "%s,%d,%d,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%ld,%ld\n",
+              r->path, r->nv, r->nu, r->h, r->mj_h, r->fwd_us, r->tape_us, r->bwd_us,
               r->bwd_us / r->fwd_us, r->mj_us, r->fd_us, r->fd_us / r->bwd_us, simRatio(r),
-              r->bytes_per_step, r->unconverged);
+              r->bytes_per_step, r->unconverged, r->mj_warnings);
     }
     if (cli_commitOutput(f, tmp, a.csv)) {
       return CLI_FAIL;
