@@ -63,7 +63,6 @@ static double vjpDiff(const mjModel* m, mjData* d, int truncate, const mjtNum* g
   double e[4] = {relDiff(out, out + n, nv, 1e-300), relDiff(out + nv, out + n + nv, nv, 1e-300),
                  relDiff(out + 2 * nv, out + n + 2 * nv, nu, 1e-300),
                  relDiff(out + 2 * nv + nu, out + n + 2 * nv + nu, np, 1e-300)};
-  if (getenv("DBG")) printf("vjp trunc %d: %g %g %g %g\n", truncate, e[0], e[1], e[2], e[3]);
   e[0] = fmax(fmax(e[0], e[1]), fmax(e[2], e[3]));
   free(out);
   return e[0];
@@ -115,7 +114,6 @@ static double rollout(const mjModel* m, double h, int nstep, int every, double c
     for (int i = 0; i < m->nu; i++) d->ctrl[i] = ctrl * (1 + 0.2 * uniform(&seed));
     if (k % every == every - 1) {
       double e = transitionDiff(m, d);
-      if (getenv("DBG")) printf("transition %g\n", e);
       worst = fmax(worst, e);
     }
     int status = ost_step(m, d);
