@@ -13,32 +13,30 @@
 #include "ost_collision_terrain.h"
 #include "ost_internal.h"
 
-// copy efc row i of d into the dense row J (nv)
-static void efcRow(const mjModel* m, const mjData* d, int i, ostNum* J) {
+// row i of a MuJoCo Jacobian (efc_J, ten_J) into the dense row J (nv): from the compressed rows
+// (rowadr, rownnz, colind) when the model is sparse, else a copy of the dense row
+static void denseRow(const mjModel* m, const mjtNum* val, const int* rowadr, const int* rownnz,
+                     const int* colind, int i, mjtNum* J) {
   int nv = m->nv;
   if (mj_isSparse(m)) {
-    memset(J, 0, nv * sizeof(ostNum));
-    int adr = d->efc_J_rowadr[i];
-    for (int k = 0; k < d->efc_J_rownnz[i]; k++) {
-      J[d->efc_J_colind[adr + k]] = d->efc_J[adr + k];
+    memset(J, 0, nv * sizeof(mjtNum));
+    for (int k = 0; k < rownnz[i]; k++) {
+      J[colind[rowadr[i] + k]] = val[rowadr[i] + k];
     }
   } else {
-    memcpy(J, d->efc_J + (size_t)i * nv, nv * sizeof(ostNum));
+    memcpy(J, val + (size_t)i * nv, nv * sizeof(mjtNum));
   }
 }
 
 
+// copy efc row i of d into the dense row J (nv)
+static void efcRow(const mjModel* m, const mjData* d, int i, ostNum* J) {
+  denseRow(m, d->efc_J, d->efc_J_rowadr, d->efc_J_rownnz, d->efc_J_colind, i, J);
+}
+
+
 void ost_tendonRow(const mjModel* m, const mjData* d, int t, mjtNum* J) {
-  int nv = m->nv;
-  if (mj_isSparse(m)) {
-    memset(J, 0, nv * sizeof(mjtNum));
-    int adr = d->ten_J_rowadr[t];
-    for (int k = 0; k < d->ten_J_rownnz[t]; k++) {
-      J[d->ten_J_colind[adr + k]] = d->ten_J[adr + k];
-    }
-  } else {
-    memcpy(J, d->ten_J + (size_t)t * nv, nv * sizeof(mjtNum));
-  }
+  denseRow(m, d->ten_J, d->ten_J_rowadr, d->ten_J_rownnz, d->ten_J_colind, t, J);
 }
 
 

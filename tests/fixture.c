@@ -172,3 +172,20 @@ double ost_fixtureMaxDiff(const double* a, const double* b, int n, double* scale
   }
   return e;
 }
+
+
+void ost_fixtureTransitionCheck(const mjModel* m, mjData* d, const char* label, double* A,
+                                double* B, double* worst_a, double* worst_b, double* scale) {
+  int nx = 2 * m->nv + m->na, nu = m->nu;
+  for (int i = 0; i < nx * nx; i++) A[i] = NAN;
+  for (int i = 0; i < nx * nu; i++) B[i] = NAN;
+  ck_assert_int_eq(ost_transition(m, d, A, B), OST_OK);
+  double* fd = (double*)malloc((size_t)nx * (nx + nu) * sizeof(double));
+  ost_fixtureTransitionFD(m, d, 1e-6, fd, fd + (size_t)nx * nx);
+  *scale = 0;
+  *worst_a = ost_fixtureMaxDiff(A, fd, nx * nx, scale);
+  *worst_b = ost_fixtureMaxDiff(B, fd + (size_t)nx * nx, nx * nu, scale);
+  printf("%s (nx = %d): max |A - FD| %.2g, max |B - FD| %.2g, max |entry| %.3g\n", label, nx,
+         *worst_a, *worst_b, *scale);
+  free(fd);
+}

@@ -39,6 +39,13 @@ void ost_fixtureSetState(const mjModel* m, mjData* d, const double* q, const dou
 // max |a - b| over n entries; *scale becomes the larger of itself and max |a|
 double ost_fixtureMaxDiff(const double* a, const double* b, int n, double* scale);
 
+// ost_transition from d's state into A (nx x nx) and B (nx x nu), poisoned with NaN first so
+// that every entry must be written, then central differences (ost_fixtureTransitionFD, eps
+// 1e-6): *worst_a, *worst_b get max |A - FD|, max |B - FD| and *scale the largest entry of A and
+// B; prints them with label. Fails the test unless ost_transition returns OST_OK.
+void ost_fixtureTransitionCheck(const mjModel* m, mjData* d, const char* label, double* A,
+                                double* B, double* worst_a, double* worst_b, double* scale);
+
 // run a suite and return the process exit status
 int ost_fixtureRun(Suite* s);
 

@@ -301,17 +301,10 @@ START_TEST(test_transitionGradients) {
   mjData* d = mj_makeData(m);
   ost_fixtureSetProvider(m, d, 0.01, OST_GEOMETRY_NATIVE);
   double q0[2] = {0.3, -0.4}, v0[2] = {0.2, -0.3}, a0[2] = {0.2, 0.7}, u0[3] = {0.6, 0.8, 0.3};
-  double A[36], B[18], worst_a = 0, worst_b = 0, scale = 0;
+  double A[36], B[18], worst_a, worst_b, scale;
+  ck_assert(nx * nx <= 36 && nx * nu <= 18);
   ost_fixtureSetState(m, d, q0, v0, a0, u0);
-  for (int i = 0; i < nx * nx; i++) A[i] = NAN;  // poisoned: every entry must be written
-  for (int i = 0; i < nx * nu; i++) B[i] = NAN;
-  ck_assert_int_eq(ost_transition(m, d, A, B), OST_OK);
-  double Afd[36], Bfd[18];
-  ost_fixtureTransitionFD(m, d, 1e-6, Afd, Bfd);
-  worst_a = ost_fixtureMaxDiff(A, Afd, nx * nx, &scale);
-  worst_b = ost_fixtureMaxDiff(B, Bfd, nx * nu, &scale);
-  printf("muscle transition (nx = %d): max |A - FD| %.2g, max |B - FD| %.2g, max |entry| %.3g\n",
-         nx, worst_a, worst_b, scale);
+  ost_fixtureTransitionCheck(m, d, "muscle transition", A, B, &worst_a, &worst_b, &scale);
   // central differences: truncation eps^2 |x'''| ~ 1e-12 and rounding 1e-16 / eps ~ 1e-10 (no
   // contact: Newton solves the step to rounding); 1e-7 of the largest entry
   ck_assert_double_le(worst_a, 1e-7 * fmax(1, scale));
