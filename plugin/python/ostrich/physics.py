@@ -20,12 +20,19 @@ _ENGINES = {"ostrich": 0, "mujoco": 1}
 
 
 class _Handle:
-  """Owns the C physics (ostpyPhysics); freed when the last Physics or view lets go."""
+  """Owns the C physics (ostpyPhysics); freed when the last Physics or view lets go. Also owns
+  the tapes no rollout uses any more (rollout.py's _Tape), kept for the next rollouts: a new
+  tape makes its own mjData and, at its first backward pass, its own copy of the model."""
 
   def __init__(self, ptr):
     self.ptr = ptr
+    self.spare_tapes = {}  # checkpoint -> [ostpyTape pointers]
 
-  def __del__(self, free=_lib_.ostpy_free):  # bound now: module globals may be gone at exit
+  def __del__(self, free=_lib_.ostpy_free, free_tape=_lib_.ostpy_tapeFree):  # bound now: module
+    for tapes in self.spare_tapes.values():                    # globals may be gone at exit
+      for tape in tapes:
+        free_tape(tape)  # before the model they point to
+    self.spare_tapes = {}
     if self.ptr:
       free(self.ptr)
       self.ptr = None

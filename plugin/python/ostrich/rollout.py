@@ -66,19 +66,34 @@ def set_theta(physics, theta):
     entries[...] = theta[sl]
 
 
+SPARE_TAPES = 4  # tapes a Physics keeps for reuse per checkpoint interval
+
+
 class _Tape:
-  """Owns an ostpyTape."""
+  """Owns an ostpyTape. A tape no Rollout holds goes back to its physics for the next rollout
+  (up to SPARE_TAPES of them): a fresh tape costs an mjData and, at its first backward pass, a
+  copy of the whole model (textures included), which on small models cost more than a
+  50-step rollout and its backward pass together. ostpy_rollout clears a reused tape first."""
 
   def __init__(self, physics, checkpoint):
     self.physics = physics  # the tape's model lives as long as the physics
-    self.ptr = _lib_.ostpy_tapeCreate(physics._handle.ptr, int(checkpoint))
+    self.checkpoint = int(checkpoint)
+    spare = physics._handle.spare_tapes.get(self.checkpoint)
+    self.ptr = spare.pop() if spare else _lib_.ostpy_tapeCreate(physics._handle.ptr,
+                                                                 self.checkpoint)
     if not self.ptr:
       raise OstrichError("cannot create a tape (out of memory)", 6)
 
   def __del__(self, free=_lib_.ostpy_tapeFree):  # bound now: module globals may be gone at exit
-    if getattr(self, "ptr", None):
-      free(self.ptr)
-      self.ptr = None
+    ptr = getattr(self, "ptr", None)
+    if not ptr:
+      return
+    self.ptr = None
+    spare = self.physics._handle.spare_tapes.setdefault(self.checkpoint, [])
+    if len(spare) < SPARE_TAPES:
+      spare.append(ptr)
+    else:
+      free(ptr)
 
   def error(self):
     return _lib.text(_lib_.ostpy_tapeError(self.ptr))

@@ -92,6 +92,30 @@ def test_rollout_states_are_the_steps(cartpole):
     np.testing.assert_array_equal(physics.data.qvel, qvel[k + 1])
 
 
+def test_reused_tapes_keep_each_rollout_its_own(cartpole):
+  # rollouts take spare tapes from their physics (rollout.py, _Tape): a rollout still held must
+  # keep its own tape, and a reused tape must give the bits of a fresh one
+  physics, a = cartpole.physics, cartpole.actions
+  cot = np.ones((len(a) + 1, 2))
+
+  def gradient(rollout):
+    return rollout.backward(cot, cot, params=False).ctrl
+
+  first = ostrich.rollout(physics, a, cartpole.qpos0, cartpole.qvel0)
+  reference = gradient(first)
+  second = ostrich.rollout(physics, -a, cartpole.qpos0, cartpole.qvel0)  # another tape
+  assert second._tape.ptr != first._tape.ptr
+  np.testing.assert_array_equal(gradient(first), reference)
+  other = gradient(second)
+  del first, second
+  physics._last_rollout = None  # the last rollout is kept by its physics; let it go too
+  spare = list(physics._handle.spare_tapes[0])
+  assert len(spare) == 2
+  again = ostrich.rollout(physics, -a, cartpole.qpos0, cartpole.qvel0)
+  assert again._tape.ptr in spare  # reused
+  np.testing.assert_array_equal(gradient(again), other)
+
+
 def test_gradient_matches_central_differences(cartpole):
   grads = cartpole.adjoint(params=True)
   errors = {

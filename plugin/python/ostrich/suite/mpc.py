@@ -1,0 +1,368 @@
+"""Model-predictive control on the suite's tasks: whole episodes, re-planned at every control step,
+with Ostrich's adjoint gradients, with the same optimizer fed by finite differences of stock
+MuJoCo, and with a sampling planner (MPPI) on Ostrich batches.
+
+  python3 -m ostrich.suite.mpc --task cartpole-swingup[,pendulum-swingup,...]
+      [--methods adjoint,fd,mppi] [--iters 1,2,5] [--samples 16,64] [--horizon N]
+      [--steps N] [--control-cost C] [--seed S] [--csv FILE] [--plot FILE.png]
+
+The plant is the task's dm_env Environment on Ostrich (dm_control's XML, start state, reward,
+control timestep and episode length). At every control step the planner starts from the plant's
+state, optimizes the next H actions (default: 1 s of control steps) warm-started by its previous
+plan shifted one step, and the plant plays the first action. The episode's return is the sum of
+the task's own rewards. Planners maximize
+
+  J(A) = sum_k f(qpos_k+1, qvel_k+1, a_k) - C |a_k|^2
+
+with f the objective of ostrich.suite.optimize (the task's reward_fn, or its documented smooth
+surrogate where the reward is sparse) and C = --control-cost (default 1e-2). C keeps actions
+off saturation: at a hard joint limit (the reacher's wrist) a torque pushing into the limit
+moves nothing, so its gradient is exactly 0 and a gradient planner cannot pull it back without
+C (measured: the reacher held its wrist at the limit 3 cm from the target, return 0).
+
+  adjoint  K Adam steps per control step on dJ/dA from ostrich.rollout(...).backward(...).
+  fd       the same K Adam steps on dJ/dA by forward differences of stock MuJoCo rollouts from
+           the plant's state (ostrich.suite.optimize.Problem.fd_objective_and_gradient).
+  mppi     model-predictive path integral control: N sampled action sequences around the plan
+           (one Ostrich Batch rollout on one thread) averaged with weights exp((J_i - max J) /
+           (0.1 (max J - mean J))).
+
+Each (method, K or N) is one episode: one point of return against the planners' own wall time
+(the plant's steps are not counted), drawn by --plot. An iteration whose rollout does not
+converge (Ostrich) or is not finite (MuJoCo) is not used: the plan stays, and the `bad` column
+counts it; the plant's own unconverged steps are counted there too.
+"""
+
+import argparse
+import collections
+import csv
+import io
+import math
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+import warnings
+
+import numpy as np
+
+from ..errors import NotConvergedWarning
+from . import find_suite_dir, load
+from .optimize import (Adam, Problem, SetupError, SUPPORTED, Unconverged, check_writable,
+                       write_atomic, _temporary_beside)
+
+METHODS = ("adjoint", "fd", "mppi")
+ADAM_LR = 0.1          # Adam's step in action units (the suite's actions lie in [-1, 1])
+CONTROL_COST = 1e-2    # C: per step, against rewards in [0, 1]
+MPPI_STD = 0.3         # MPPI's sampling spread, in half-ranges of the action spec
+
+Episode = collections.namedtuple(
+    "Episode", "task method setting ret plan_s steps iterations bad plant_unconverged")
+
+
+class Planner:
+  """One task's receding-horizon problem: a Problem (optimize.py) whose start state is moved to
+  the plant's state before each plan, and whose objective carries the control cost."""
+
+  def __init__(self, domain, task, horizon=None, seed=0, xml_dir=None,
+               control_cost=CONTROL_COST):
+    env = load(domain, task, xml_dir=xml_dir, seed=seed)
+    if horizon is None:  # 1 s of control steps: a swing, a reach, a stride
+      horizon = max(1, int(round(1.0 / env.control_timestep())))
+    self.problem = Problem(domain, task, horizon, seed, xml_dir)
+    f, c = self.problem.f, float(control_cost)
+    self.problem.f = lambda qpos, qvel, ctrl: f(qpos, qvel, ctrl) - c * np.sum(ctrl ** 2, -1)
+    self.horizon, self.nu = self.problem.horizon, self.problem.nu
+    self.domain, self.task, self.seed, self.xml_dir = domain, task, seed, xml_dir
+
+  def set_start(self, qpos, qvel):
+    self.problem.qpos0, self.problem.qvel0 = qpos.copy(), qvel.copy()
+
+
+def _shift(x):
+  """A plan (or optimizer moment) one control step later: drop the first row, repeat the last."""
+  return np.concatenate([x[1:], x[-1:]])
+
+
+class GradientMPC:
+  """K Adam steps per control step on grad(actions) -> (J, dJ/dA); the plan and Adam's moments
+  carry over, shifted, from one control step to the next."""
+
+  def __init__(self, planner, grad, iterations, lr=ADAM_LR):
+    self.p, self.grad, self.iterations = planner, grad, iterations
+    self.plan = planner.problem.initial_actions()
+    self.adam = Adam(self.plan.shape, lr)
+
+  def act(self):
+    """(action, bad iterations) for the current start state."""
+    bad = 0
+    for _ in range(self.iterations):
+      try:
+        _, g = self.grad(self.plan)
+      except Unconverged:
+        bad += 1
+        continue
+      self.plan = self.p.problem.clip(self.adam.ascend(self.plan, g))
+    action = self.plan[0].copy()
+    self.plan = _shift(self.plan)
+    self.adam.m, self.adam.v = _shift(self.adam.m), _shift(self.adam.v)
+    return action, bad
+
+
+class MPPI:
+  """N samples around the plan per control step; the weighted mean is the new plan."""
+
+  def __init__(self, planner, samples, rng, std=MPPI_STD):
+    self.p, self.n, self.rng = planner, samples, rng
+    prob = planner.problem
+    self.plan = prob.initial_actions()
+    self.std = std * (prob.hi - prob.lo) / 2
+    self.batch = prob.batch(samples)
+
+  def act(self):
+    prob = self.p.problem
+    noise = self.std * self.rng.standard_normal((self.n, prob.horizon, prob.nu))
+    noise[0] = 0  # the plan itself is always a candidate
+    samples = prob.clip(self.plan + noise)
+    J, unconverged = prob.objective_batch(samples, self.batch)
+    ok = (np.asarray(unconverged) == 0) & np.isfinite(J)
+    bad = int(np.count_nonzero(~ok))
+    if ok.any():
+      Jok = J[ok]
+      # temperature: a tenth of the spread between the best and the mean sample, so the
+      # weights do not depend on the objective's scale
+      lam = 0.1 * max(Jok.max() - Jok.mean(), 1e-12)
+      w = np.exp((Jok - Jok.max()) / lam)
+      self.plan = np.tensordot(w / w.sum(), samples[ok], axes=1)
+    action = self.plan[0].copy()
+    self.plan = _shift(self.plan)
+    return action, bad
+
+
+def run_episode(planner, method, setting, steps=None, err=None):
+  """Play one closed-loop episode of `steps` control steps (default: the task's episode) on
+  the plant; return its Episode. Progress every 10 % on err."""
+  err = err or sys.stderr
+  prob = planner.problem
+  if method == "adjoint":
+    agent = GradientMPC(planner, prob.objective_and_gradient, setting)
+  elif method == "fd":
+    agent = GradientMPC(planner, prob.fd_objective_and_gradient, setting)
+  elif method == "mppi":
+    agent = MPPI(planner, setting, np.random.RandomState(planner.seed))
+  else:
+    raise ValueError(method)
+  plant = load(planner.domain, planner.task, xml_dir=planner.xml_dir, seed=planner.seed)
+  plant.reset()
+  steps = int(steps or round(plant.step_limit))
+  name = f"{planner.domain}-{planner.task}"
+  total, plan_s, bad, plant_bad = 0.0, 0.0, 0, 0
+  with warnings.catch_warnings(record=True) as caught:
+    warnings.simplefilter("always", NotConvergedWarning)
+    for k in range(steps):
+      planner.set_start(plant.physics.data.qpos, plant.physics.data.qvel)
+      t0 = time.perf_counter()
+      with warnings.catch_warnings():
+        warnings.simplefilter("ignore", NotConvergedWarning)  # planners count their own
+        action, b = agent.act()
+      plan_s += time.perf_counter() - t0
+      bad += b
+      timestep = plant.step(action)
+      total += timestep.reward
+      if (k + 1) % max(1, steps // 10) == 0 or k + 1 == steps:
+        print(f"[{name} {method} {setting}] step {k + 1:5d}/{steps}  return {total:9.2f}  "
+              f"planning {plan_s:8.2f} s  bad {bad}", file=err, flush=True)
+      if timestep.last():
+        steps = k + 1
+        break
+    plant_bad = sum(issubclass(w.category, NotConvergedWarning) for w in caught)
+  return Episode(name, method, setting, total, plan_s, steps,
+                 setting * steps if method != "mppi" else steps, bad, plant_bad)
+
+
+# ---- output
+
+CSV_FIELDS = Episode._fields
+
+
+def csv_text(episodes):
+  out = io.StringIO()
+  w = csv.writer(out, lineterminator="\n")
+  w.writerow(CSV_FIELDS)
+  for e in episodes:
+    w.writerow((e.task, e.method, e.setting, f"{e.ret:.9g}", f"{e.plan_s:.6f}", e.steps,
+                e.iterations, e.bad, e.plant_unconverged))
+  return out.getvalue()
+
+
+def table(episodes):
+  """The Markdown table and, per task, how much sooner the adjoint reached fd's best return."""
+  rows = ["| task | method | K or N | return | planning s | ms per control step | bad |",
+          "|---|---|---:|---:|---:|---:|---:|"]
+  for e in episodes:
+    rows.append(f"| {e.task} | {e.method} | {e.setting} | {e.ret:.1f} | {e.plan_s:.2f} | "
+                f"{1e3 * e.plan_s / max(e.steps, 1):.2f} | {e.bad + e.plant_unconverged} |")
+  lines = []
+  for task in dict.fromkeys(e.task for e in episodes):
+    adj = [e for e in episodes if e.task == task and e.method == "adjoint"]
+    fd = [e for e in episodes if e.task == task and e.method == "fd"]
+    if not (adj and fd):
+      continue
+    best = max(fd, key=lambda e: (e.ret, -e.plan_s))
+    reach = [e for e in adj if e.ret >= best.ret]
+    if not reach:
+      lines.append(f"{task}: no adjoint episode reached fd's best return {best.ret:.1f}")
+      continue
+    fast = min(reach, key=lambda e: e.plan_s)
+    lines.append(f"{task}: fd's best return {best.ret:.1f} (K = {best.setting}, "
+                 f"{best.plan_s:.2f} s of planning); the adjoint reached {fast.ret:.1f} with "
+                 f"K = {fast.setting} in {fast.plan_s:.2f} s: "
+                 f"{best.plan_s / max(fast.plan_s, 1e-9):.1f}x less planning time")
+  return "\n".join(rows), "\n".join(lines)
+
+
+def plot(path, episodes, title=""):
+  """Return against planning time, one line per method (its K or N in order), one panel per
+  task, with gnuplot into a temporary file beside path, renamed onto path."""
+  tasks = list(dict.fromkeys(e.task for e in episodes))
+  data = tempfile.NamedTemporaryFile("w", suffix=".csv", delete=False)
+  tmp = _temporary_beside(path)
+  labels = {"adjoint": "Adam, adjoint (Ostrich)", "fd": "Adam, finite differences (MuJoCo)",
+            "mppi": "MPPI (Ostrich batch)"}
+  try:
+    with data:
+      data.write(csv_text(sorted(episodes, key=lambda e: (e.task, e.method, e.plan_s))))
+    proc = None
+    for terminal in ("pngcairo size {w},480 noenhanced", "png size {w},480 noenhanced"):
+      script = [f"set terminal {terminal.format(w=max(640, 560 * len(tasks)))}",
+                f"set output '{tmp}'", "set datafile separator ','", "set key bottom right",
+                "set grid", "set logscale x", "set xlabel 'planning wall time per episode, s'",
+                "set ylabel 'episode return'", f"set multiplot layout 1,{len(tasks)} title "
+                f"'{title}'"]
+      for task in tasks:
+        lines = [f"'{data.name}' using (strcol(1) eq '{task}' && strcol(2) eq '{m}' ? $5 : "
+                 f"NaN):4 with linespoints lw 2 pt 7 title '{labels[m]}'"
+                 for m in METHODS if any(e.task == task and e.method == m for e in episodes)]
+        script += [f"set title '{task}'", "plot " + ", ".join(lines)]
+      script.append("unset multiplot")
+      proc = subprocess.run(["gnuplot"], input="\n".join(script) + "\n", text=True,
+                            capture_output=True)
+      if proc.returncode == 0 and os.path.getsize(tmp) > 0:
+        break
+    else:
+      raise OSError(f"gnuplot could not draw {path}: {proc.stderr.strip()[-300:]}")
+    os.replace(tmp, path)
+  finally:
+    os.unlink(data.name)
+    if os.path.exists(tmp):
+      os.unlink(tmp)
+
+
+# ---- command line
+
+def _ints(text, flag):
+  try:
+    values = [int(v) for v in text.split(",") if v.strip()]
+  except ValueError:
+    raise SetupError(f"{flag} {text!r}: not a comma-separated list of integers") from None
+  if not values or min(values) < 1:
+    raise SetupError(f"{flag} {text!r}: need positive integers")
+  return values
+
+
+def parse(argv):
+  ap = argparse.ArgumentParser(
+      prog="python3 -m ostrich.suite.mpc",
+      description="Model-predictive control of dm_control suite tasks on Ostrich: Adam on "
+      "Ostrich's adjoint gradients (adjoint), the same Adam on finite differences of stock "
+      "MuJoCo (fd), and MPPI on Ostrich batches (mppi); one whole episode per method and "
+      "setting, returns and planning time.")
+  ap.add_argument("--task", required=True,
+                  help="DOMAIN-TASK, or several separated by commas; one of: "
+                  + ", ".join(f"{d}-{t}" for d, t in SUPPORTED))
+  ap.add_argument("--methods", default="adjoint,fd,mppi", help="comma-separated: "
+                  + ",".join(METHODS))
+  ap.add_argument("--iters", default="1,2,5",
+                  help="Adam steps per control step for adjoint and fd, one episode each")
+  ap.add_argument("--samples", default="16,64", help="MPPI's samples per control step, one "
+                  "episode each")
+  ap.add_argument("--horizon", type=int, help="planned control steps (default: 1 s of them)")
+  ap.add_argument("--steps", type=int, help="control steps per episode (default: the task's)")
+  ap.add_argument("--control-cost", type=float, default=CONTROL_COST,
+                  help=f"C in J = sum f - C |a|^2 (default {CONTROL_COST:g})")
+  ap.add_argument("--seed", type=int, default=0, help="the task's start state and MPPI's draws")
+  ap.add_argument("--xml-dir", help="dm_control's suite MJCF folder (default: as ostrich.suite)")
+  ap.add_argument("--csv", help="write one row per episode to this CSV")
+  ap.add_argument("--plot", help="draw return against planning time into this PNG (gnuplot)")
+  return ap.parse_args(argv)
+
+
+def setup(args):
+  """Check everything that can be checked before work; return tasks, [(method, setting)]."""
+  tasks = []
+  for name in args.task.split(","):
+    domain, _, task = name.strip().partition("-")
+    if (domain, task) not in SUPPORTED:
+      raise SetupError(f"--task {name}: one of " + ", ".join(f"{d}-{t}" for d, t in SUPPORTED))
+    tasks.append((domain, task))
+  methods = [m.strip() for m in args.methods.split(",") if m.strip()]
+  if not methods:
+    raise SetupError("--methods: none given")
+  for m in methods:
+    if m not in METHODS:
+      raise SetupError(f"--methods: unknown method {m!r}; one of {', '.join(METHODS)}")
+  iters, samples = _ints(args.iters, "--iters"), _ints(args.samples, "--samples")
+  runs = [(m, s) for m in methods for s in (samples if m == "mppi" else iters)]
+  if args.horizon is not None and args.horizon < 1:
+    raise SetupError("--horizon must be at least 1")
+  if args.steps is not None and args.steps < 1:
+    raise SetupError("--steps must be at least 1")
+  if not (math.isfinite(args.control_cost) and args.control_cost >= 0):
+    raise SetupError("--control-cost must be finite and at least 0")
+  if args.csv:
+    check_writable(args.csv, "--csv")
+  if args.plot:
+    check_writable(args.plot, "--plot")
+    if shutil.which("gnuplot") is None:
+      raise SetupError("--plot needs gnuplot (Debian: gnuplot-nox)")
+  try:
+    find_suite_dir(args.xml_dir)
+  except FileNotFoundError as e:
+    raise SetupError(str(e)) from e
+  return tasks, runs
+
+
+def main(argv=None, out=None, err=None):
+  out, err = out or sys.stdout, err or sys.stderr
+  args = parse(argv)
+  try:
+    tasks, runs = setup(args)
+    planners = [Planner(d, t, args.horizon, args.seed, args.xml_dir, args.control_cost)
+                for d, t in tasks]
+  except SetupError as e:
+    print(f"ostrich.suite.mpc: {e}", file=err)
+    return 2
+  episodes = []
+  for planner in planners:
+    print(f"[{planner.domain}-{planner.task}] horizon {planner.horizon} control steps, seed "
+          f"{args.seed}; objective: {planner.problem.objective_text} - {args.control_cost:g} "
+          "|a|^2; plant: Ostrich", file=err, flush=True)
+    for method, setting in runs:
+      episodes.append(run_episode(planner, method, setting, args.steps, err))
+  rows, speed = table(episodes)
+  print(rows, file=out)
+  if speed:
+    print(speed, file=out)
+  if args.csv:
+    write_atomic(args.csv, csv_text(episodes))
+    print(f"ostrich.suite.mpc: wrote {args.csv}", file=err)
+  if args.plot:
+    plot(args.plot, episodes, "model-predictive control: return against planning time")
+    print(f"ostrich.suite.mpc: wrote {args.plot}", file=err)
+  return 0
+
+
+if __name__ == "__main__":
+  sys.exit(main())
