@@ -89,6 +89,12 @@ def test_fd_and_mppi_run_and_the_table_compares(monkeypatch):
   assert all(e.steps == 5 and e.ret > 0 for e in episodes)
   rows, speed = mpc.table(episodes)
   assert rows.count("\n") == 4 and "cartpole-balance" in speed
+  # the comparison line: the cheapest adjoint episode within 2 % of fd's best return
+  fake = [e._replace(method=m, setting=k, ret=r, plan_s=t) for e, (m, k, r, t) in zip(
+      episodes * 2, [("fd", 1, 100.0, 10.0), ("fd", 2, 101.0, 20.0), ("adjoint", 1, 95.0, 0.5),
+                     ("adjoint", 2, 99.5, 1.0)])]
+  _, speed = mpc.table(fake)
+  assert "fd K = 1 in 10.00 s" in speed and "adjoint K = 2 (99.5) in 1.00 s: 10.0x" in speed
 
 
 def test_cli_writes_csv_and_png_atomically(tmp_path, capsys):
@@ -100,6 +106,8 @@ def test_cli_writes_csv_and_png_atomically(tmp_path, capsys):
   assert status == 0
   lines = csv_path.read_text().splitlines()
   assert lines[0].split(",") == list(mpc.CSV_FIELDS) and len(lines) == 3
+  episodes = mpc.read_csv(csv_path)
+  assert [(e.method, e.setting, e.steps) for e in episodes] == [("adjoint", 1, 3), ("mppi", 4, 3)]
   assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
   assert sorted(os.listdir(tmp_path)) == ["mpc.csv", "mpc.png"]  # no temporary left
   assert "| cartpole-balance | adjoint | 1 |" in capsys.readouterr().out
