@@ -301,12 +301,22 @@ if hasattr(suite.environment, "_dm_env") and suite.environment._dm_env is not No
 else:
   _dm_env_test_utils = None
 
-if _dm_env_test_utils is not None:
-  class TestDmEnvMixin(_dm_env_test_utils.EnvironmentTestMixin, unittest.TestCase):
-    """dm_env's own conformance tests, on cartpole swingup."""
+def _mixin_case(domain, task):
+  """dm_env's own conformance tests on one task, with an episode of 8 control steps so that
+  the mixin's 20 actions cross its LAST step and the reset after it."""
 
+  class Case(_dm_env_test_utils.EnvironmentTestMixin, unittest.TestCase):
     def make_object_under_test(self):
-      return _load("cartpole", "swingup", seed=0)
+      env = _load(domain, task, seed=0)
+      return _load(domain, task, seed=0, time_limit=8 * env.control_timestep())
+
+  Case.__name__ = Case.__qualname__ = f"TestDmEnvMixin_{domain}_{task}"
+  return Case
+
+
+if _dm_env_test_utils is not None:
+  for _domain, _task in suite.TASKS:
+    globals()[f"TestDmEnvMixin_{_domain}_{_task}"] = _mixin_case(_domain, _task)
 
 
 def test_uses_dm_envs_classes_when_installed():
