@@ -76,6 +76,15 @@ def test_unconverged_iterations_leave_the_plan(monkeypatch):
   assert episode.ret == pytest.approx(_zero_return("cartpole", "balance", 4), abs=0)
 
 
+def test_larger_physics_step_plans_and_plays_at_it():
+  # walker's control step is 0.025 s, ten of dm_control's 0.0025 s steps; at the control step
+  # itself the plant and the Ostrich planners take one step per action
+  planner = mpc.Planner("walker", "stand", horizon=4, xml_dir=SUITE_DIR, physics_timestep=0.025)
+  assert planner.problem.n_sub == 1 and planner.problem.env.physics.timestep == 0.025
+  episode = mpc.run_episode(planner, "adjoint", 1, steps=3, err=io.StringIO())
+  assert episode.steps == 3 and np.isfinite(episode.ret)
+
+
 def test_shifted_plan_and_moments():
   x = np.arange(6.0).reshape(3, 2)
   np.testing.assert_array_equal(mpc._shift(x), [[2, 3], [4, 5], [4, 5]])
@@ -115,7 +124,9 @@ def test_cli_writes_csv_and_png_atomically(tmp_path, capsys):
 
 @pytest.mark.parametrize("args", [["--task", "nope-task"], ["--methods", "sgd"],
                                   ["--iters", "0"], ["--samples", "x"], ["--steps", "0"],
-                                  ["--control-cost", "-1"], ["--csv", "/nonexistent/a.csv"]])
+                                  ["--control-cost", "-1"], ["--csv", "/nonexistent/a.csv"],
+                                  ["--physics-timestep", "0"],
+                                  ["--physics-timestep", "0.003"]])  # 0.01 s is no multiple
 def test_cli_refuses_bad_arguments_before_work(args):
   argv = ["--task", "cartpole-balance", "--xml-dir", str(SUITE_DIR)] + args
   err = io.StringIO()

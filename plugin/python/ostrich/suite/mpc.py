@@ -67,15 +67,16 @@ class Planner:
   the plant's state before each plan, and whose objective carries the control cost."""
 
   def __init__(self, domain, task, horizon=None, seed=0, xml_dir=None,
-               control_cost=CONTROL_COST):
-    env = load(domain, task, xml_dir=xml_dir, seed=seed)
+               control_cost=CONTROL_COST, physics_timestep=None):
+    env = load(domain, task, xml_dir=xml_dir, seed=seed, physics_timestep=physics_timestep)
     if horizon is None:  # 1 s of control steps: a swing, a reach, a stride
       horizon = max(1, int(round(1.0 / env.control_timestep())))
-    self.problem = Problem(domain, task, horizon, seed, xml_dir)
+    self.problem = Problem(domain, task, horizon, seed, xml_dir, physics_timestep)
     f, c = self.problem.f, float(control_cost)
     self.problem.f = lambda qpos, qvel, ctrl: f(qpos, qvel, ctrl) - c * np.sum(ctrl ** 2, -1)
     self.horizon, self.nu = self.problem.horizon, self.problem.nu
     self.domain, self.task, self.seed, self.xml_dir = domain, task, seed, xml_dir
+    self.physics_timestep = physics_timestep
 
   def set_start(self, qpos, qvel):
     self.problem.qpos0, self.problem.qvel0 = qpos.copy(), qvel.copy()
@@ -154,7 +155,8 @@ def run_episode(planner, method, setting, steps=None, err=None):
     agent = MPPI(planner, setting, np.random.RandomState(planner.seed))
   else:
     raise ValueError(method)
-  plant = load(planner.domain, planner.task, xml_dir=planner.xml_dir, seed=planner.seed)
+  plant = load(planner.domain, planner.task, xml_dir=planner.xml_dir, seed=planner.seed,
+               physics_timestep=planner.physics_timestep)
   plant.reset()
   steps = int(steps or round(plant.step_limit))
   name = f"{planner.domain}-{planner.task}"
@@ -307,6 +309,10 @@ def parse(argv):
                   "episode each")
   ap.add_argument("--horizon", type=int, help="planned control steps (default: 1 s of them)")
   ap.add_argument("--steps", type=int, help="control steps per episode (default: the task's)")
+  ap.add_argument("--physics-timestep", type=float,
+                  help="Ostrich's step for the plant and the Ostrich planners (default: the "
+                  "suite's; the control timestep must be a multiple of it); fd's MuJoCo keeps "
+                  "the suite's own")
   ap.add_argument("--control-cost", type=float, default=CONTROL_COST,
                   help=f"C in J = sum f - C |a|^2 (default {CONTROL_COST:g})")
   ap.add_argument("--seed", type=int, default=0, help="the task's start state and MPPI's draws")
@@ -336,6 +342,9 @@ def setup(args):
     raise SetupError("--horizon must be at least 1")
   if args.steps is not None and args.steps < 1:
     raise SetupError("--steps must be at least 1")
+  if args.physics_timestep is not None and not (math.isfinite(args.physics_timestep)
+                                                and args.physics_timestep > 0):
+    raise SetupError("--physics-timestep must be positive")
   if not (math.isfinite(args.control_cost) and args.control_cost >= 0):
     raise SetupError("--control-cost must be finite and at least 0")
   if args.csv:
@@ -356,14 +365,15 @@ def main(argv=None, out=None, err=None):
   args = parse(argv)
   try:
     tasks, runs = setup(args)
-    planners = [Planner(d, t, args.horizon, args.seed, args.xml_dir, args.control_cost)
-                for d, t in tasks]
-  except SetupError as e:
+    planners = [Planner(d, t, args.horizon, args.seed, args.xml_dir, args.control_cost,
+                        args.physics_timestep) for d, t in tasks]
+  except (SetupError, ValueError) as e:
     print(f"ostrich.suite.mpc: {e}", file=err)
     return 2
   episodes = []
   for planner in planners:
-    print(f"[{planner.domain}-{planner.task}] horizon {planner.horizon} control steps, seed "
+    print(f"[{planner.domain}-{planner.task}] horizon {planner.horizon} control steps of "
+          f"{planner.problem.n_sub} Ostrich steps, seed "
           f"{args.seed}; objective: {planner.problem.objective_text} - {args.control_cost:g} "
           "|a|^2; plant: Ostrich", file=err, flush=True)
     for method, setting in runs:

@@ -177,9 +177,12 @@ class Problem:
   """One task's trajectory optimization problem: the start state (seed), the horizon H, the
   bounds, the objective, and its gradients by the adjoint and by MuJoCo finite differences."""
 
-  def __init__(self, domain, task, horizon=None, seed=0, xml_dir=None):
+  def __init__(self, domain, task, horizon=None, seed=0, xml_dir=None, physics_timestep=None):
+    # physics_timestep: Ostrich's step (default the suite's); fd's MuJoCo keeps the suite's own
     self.domain, self.task, self.seed, self.xml_dir = domain, task, seed, xml_dir
-    self.env = load(domain, task, xml_dir=xml_dir, seed=seed)  # Ostrich: adjoint and CEM
+    self.physics_timestep = physics_timestep
+    self.env = load(domain, task, xml_dir=xml_dir, seed=seed,  # Ostrich: adjoint and CEM
+                    physics_timestep=physics_timestep)
     self.env.reset()
     p = self.env.physics
     self.qpos0, self.qvel0 = p.data.qpos.copy(), p.data.qvel.copy()
@@ -192,7 +195,8 @@ class Problem:
     self.lo, self.hi = np.array(spec.minimum, float), np.array(spec.maximum, float)
     self.nu = p.nu
     self.f, self.objective_text = objective_of(self.env)
-    self.eval_env = load(domain, task, xml_dir=xml_dir, seed=seed)
+    self.eval_env = load(domain, task, xml_dir=xml_dir, seed=seed,
+                         physics_timestep=physics_timestep)
     self._mj = None  # the MuJoCo environment, made when fd needs it
     self.rows = np.arange(1, self.horizon + 1) * self.n_sub  # rollout rows ending control steps
 
@@ -282,7 +286,7 @@ class Problem:
         if has_act:
           sa[k] = act
       d.ctrl[:] = actions[k]
-      step(self.n_sub, engine="mujoco")
+      step(self.mujoco.n_sub_steps, engine="mujoco")
       qp_out[k], qv_out[k] = qpos, qvel
 
   def fd_objective_and_gradient(self, actions, step=FD_STEP):
