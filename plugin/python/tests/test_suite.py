@@ -166,6 +166,26 @@ def test_hopper_reward_by_hand():
   assert h < 0.6 and r == 0  # below the bounds with margin 0: no reward
 
 
+def test_planar_com_height_is_mujocos_kinematics():
+  # hopper's torso over its foot, walker's torso over its left foot: the planar chain's heights
+  # equal MuJoCo's xipos after mj_forward at random joint angles (rounding only)
+  from ostrich.suite.tasks import planar_com_height
+  rng = np.random.RandomState(4)
+  for domain, task, lower in (("hopper", "stand", "foot"), ("walker", "stand", "left_foot")):
+    env = _load(domain, task)
+    height = planar_com_height(env.physics, "torso", lower)
+    p = env.physics
+    qs = p.model.qpos0 + rng.uniform(-1.5, 1.5, (20, p.nq))
+    got = height(qs)
+    for q, h in zip(qs, got):
+      p.data.qpos[:] = q
+      p.forward()
+      xipos = p.named.data.xipos
+      assert h == pytest.approx(xipos["torso", 2] - xipos[lower, 2], abs=1e-14)
+  with pytest.raises(ValueError, match="not planar"):
+    planar_com_height(_load("reacher", "easy").physics, "finger", "arm")  # hinges about z
+
+
 # ---- rewards as functions of (qpos, qvel, ctrl)
 
 @pytest.mark.parametrize("domain,task", suite.REWARD_FNS)

@@ -26,7 +26,7 @@ from ..physics import Physics
 ENGINES = ("ostrich", "mujoco")
 # tasks whose reward is also a function of (qpos, qvel, ctrl): Environment.reward_fn(xp)
 REWARD_FNS = (("cartpole", "balance"), ("cartpole", "swingup"), ("pendulum", "swingup"),
-              ("reacher", "easy"), ("walker", "stand"))
+              ("reacher", "easy"), ("walker", "stand"), ("hopper", "stand"))
 
 __all__ = ["load", "find_suite_dir", "TASKS", "REWARD_FNS", "Environment", "TimeStep",
            "StepType", "Array", "BoundedArray", "tolerance"]

@@ -18,7 +18,7 @@ the end of each control step:
   cem      the cross-entropy method on Ostrich rollouts of a Batch (one thread): samples around
            a mean sequence, the best ones refit the mean and spread.
 
-f is the task's reward_fn where that is smooth (cartpole, walker stand); a smooth surrogate
+f is the task's reward_fn where that is smooth (cartpole, walker and hopper stand); a smooth surrogate
 where the reward is sparse or needs more than (qpos, qvel, ctrl) (SURROGATES below). Each method
 gets the same wall-clock budget, measured over its own work only: every so often (at most
 every 10 % of the elapsed time, and at the end) the current action sequence is played in the
@@ -136,7 +136,8 @@ SURROGATES = {
     ("walker", "walk"): (_walker_walk_surrogate, "dm_control's walk reward with the torso's "
                          "speed for the subtree's"),
 }
-EXACT = (("cartpole", "balance"), ("cartpole", "swingup"), ("walker", "stand"))
+EXACT = (("cartpole", "balance"), ("cartpole", "swingup"), ("walker", "stand"),
+         ("hopper", "stand"))
 SUPPORTED = tuple(k for k in TASKS if k in EXACT or k in SURROGATES)
 
 
