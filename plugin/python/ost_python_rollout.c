@@ -265,3 +265,45 @@ OSTPY_API int ostpy_batchBackward(ostBatch* b, int truncate, int checkpoint, con
   go.truncate = truncate;
   return ost_batchBackward(b, &go, checkpoint, gq, gu, gctrl, gq0, gu0);
 }
+
+
+//---------------------------------- Stock MuJoCo rollouts -----------------------------------------
+
+// Step stock MuJoCo (mj_step) from p's state through nctrl control steps of nsub steps each, with
+// controls ctrl (nctrl x nu) held over each control step: the finite-difference baselines' inner
+// loop without a Python call per step. qpos (nctrl x nq) and qvel (nctrl x nv) receive the state
+// at the end of each control step; snap (nctrl x (nq + 2 nv + na), may be NULL) the state at the
+// start of each, as qpos, qvel, qacc_warmstart, act, so that a later rollout can restart there.
+// Returns OST_OK, or OST_ERR_NUMERIC with MuJoCo's error (the steps stop at the failed one).
+OSTPY_API int ostpy_mujocoRollout(ostpyPhysics* p, int nctrl, int nsub, const mjtNum* ctrl,
+                                  mjtNum* qpos, mjtNum* qvel, mjtNum* snap) {
+  const mjModel* m = p->m;
+  mjData* d = p->d;
+  int nq = m->nq, nv = m->nv, na = m->na, nu = m->nu;
+  int nsnap = nq + 2 * nv + na;
+  p->err[0] = 0;
+  if (nctrl < 0 || nsub < 1) {
+    return ostpy_fail(p->err, OST_ERR_INPUT, "need nctrl >= 0 control steps of nsub >= 1 steps");
+  }
+  char* err = ostpy_mujocoError();
+  err[0] = 0;
+  for (int k = 0; k < nctrl; k++) {
+    if (snap) {
+      mjtNum* s = snap + (size_t)k * nsnap;
+      mju_copy(s, d->qpos, nq);
+      mju_copy(s + nq, d->qvel, nv);
+      mju_copy(s + nq + nv, d->qacc_warmstart, nv);
+      mju_copy(s + nq + 2 * nv, d->act, na);
+    }
+    mju_copy(d->ctrl, ctrl + (size_t)k * nu, nu);
+    for (int i = 0; i < nsub; i++) {
+      mj_step(m, d);
+      if (err[0]) {
+        return ostpy_fail(p->err, OST_ERR_NUMERIC, err);
+      }
+    }
+    mju_copy(qpos + (size_t)k * nq, d->qpos, nq);
+    mju_copy(qvel + (size_t)k * nv, d->qvel, nv);
+  }
+  return OST_OK;
+}

@@ -17,12 +17,12 @@ from ._lib import MUJOCO_VERSION
 from .batch import Batch, BatchGradients, BatchRollout
 from .errors import MujocoWarning, NotConvergedError, NotConvergedWarning, OstrichError
 from .physics import Physics
-from .rollout import (PARAM_GROUPS, Gradients, Rollout, get_theta, param_slices, rollout,
-                      set_theta)
+from .rollout import (PARAM_GROUPS, Gradients, Rollout, get_theta, mujoco_rollout, param_slices,
+                      rollout, set_theta)
 
 __all__ = [
     "Physics", "rollout", "Rollout", "Gradients", "PARAM_GROUPS", "OstrichError",
     "NotConvergedError", "NotConvergedWarning", "MujocoWarning", "MUJOCO_VERSION", "Batch",
     "BatchRollout", "BatchGradients", "get_theta", "set_theta",
-    "param_slices",
+    "param_slices", "mujoco_rollout",
 ]

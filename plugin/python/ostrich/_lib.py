@@ -53,6 +53,7 @@ _SIGNATURES = {
     "ostpy_tapeError": (_s, [_p]),
     "ostpy_rollout": (_i, [_p, _p, _i, _d, _d, _d, _ip]),
     "ostpy_backward": (_i, [_p, _p, _i, _i, _i, _d, _d, _d, _d, _d, _d]),
+    "ostpy_mujocoRollout": (_i, [_p, _i, _i, _d, _d, _d, _d]),
     "ostpy_coordToTangent": (None, [_p, _i, _d, _d, _d]),
     "ostpy_tangentToCoord": (None, [_p, _i, _d, _d, _d]),
     # ostrich.h, through the same handle

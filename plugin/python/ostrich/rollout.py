@@ -212,3 +212,33 @@ def rollout(physics, actions, qpos0=None, qvel0=None, checkpoint=0):
         f"{len(bad)} of {steps} steps did not converge (first: step {bad[0]}); the rollout went "
         "on, but backward will refuse it"), stacklevel=2)
   return out
+
+
+def mujoco_rollout(physics, actions, nsub=1, qpos_out=None, qvel_out=None, snapshots=None):
+  """Step stock MuJoCo (mj_step, no gradient) from physics' state through T control steps of nsub
+  steps each, actions (T x nu) held over each, in C without a Python call per step; return
+  (qpos, qvel), T x nq and T x nv: the state at the end of each control step (written into
+  qpos_out, qvel_out if given). snapshots (T x (nq + 2 nv + na), optional) receives the state at
+  the start of each control step as qpos, qvel, qacc_warmstart, act. The physics ends at the
+  last state; MuJoCo's warnings become MujocoWarning, its errors OstrichError."""
+  nq, nv, nu = physics.nq, physics.nv, physics.nu
+  actions = np.ascontiguousarray(actions, dtype=np.float64)
+  if actions.ndim != 2 or actions.shape[1] != nu:
+    raise ValueError(f"actions: shape {actions.shape}, expected (T, nu = {nu})")
+  steps = actions.shape[0]
+  out = []
+  for given, cols, name in ((qpos_out, nq, "qpos_out"), (qvel_out, nv, "qvel_out"),
+                            (snapshots, nq + 2 * nv + physics.data.act.size, "snapshots")):
+    if given is None:
+      out.append(np.zeros((steps, cols)) if name != "snapshots" else None)
+      continue
+    if (given.shape != (steps, cols) or given.dtype != np.float64
+        or not given.flags.c_contiguous):
+      raise ValueError(f"{name}: need a C-contiguous float64 array ({steps}, {cols})")
+    out.append(given)
+  qpos, qvel, snap = out
+  status = _lib_.ostpy_mujocoRollout(physics._handle.ptr, steps, int(nsub), _lib.dptr(actions),
+                                     _lib.dptr(qpos), _lib.dptr(qvel), _lib.dptr(snap))
+  forward_mujoco_warnings()
+  check(status, _lib.text(_lib_.ostpy_error(physics._handle.ptr)), "MuJoCo rollout")
+  return qpos, qvel

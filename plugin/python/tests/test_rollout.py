@@ -116,6 +116,32 @@ def test_reused_tapes_keep_each_rollout_its_own(cartpole):
   np.testing.assert_array_equal(gradient(again), other)
 
 
+def test_mujoco_rollout_is_mj_step_and_restarts_from_its_snapshots(cartpole):
+  # the C loop equals Physics.step(engine="mujoco") per control step, bit for bit, and a rollout
+  # restarted from a snapshot continues as the first did
+  physics, a = cartpole.physics, cartpole.actions
+  physics.data.qpos[:], physics.data.qvel[:] = cartpole.qpos0, cartpole.qvel0
+  start = (physics.data.qpos.copy(), physics.data.qvel.copy(),
+           physics.data.qacc_warmstart.copy())
+  snap = np.zeros((len(a), 3 * 2))
+  qpos, qvel = ostrich.mujoco_rollout(physics, a, 3, snapshots=snap)
+  physics.data.qpos[:], physics.data.qvel[:], physics.data.qacc_warmstart[:] = start
+  for k, u in enumerate(a):
+    np.testing.assert_array_equal(snap[k], np.concatenate(
+        (physics.data.qpos, physics.data.qvel, physics.data.qacc_warmstart)))
+    physics.data.ctrl[:] = u
+    physics.step(3, engine="mujoco")
+    np.testing.assert_array_equal(physics.data.qpos, qpos[k])
+    np.testing.assert_array_equal(physics.data.qvel, qvel[k])
+  k = 10
+  physics.data.qpos[:], physics.data.qvel[:] = snap[k, :2], snap[k, 2:4]
+  physics.data.qacc_warmstart[:] = snap[k, 4:]
+  again, _ = ostrich.mujoco_rollout(physics, a[k:], 3)
+  np.testing.assert_array_equal(again, qpos[k:])
+  with pytest.raises(ValueError, match="snapshots"):
+    ostrich.mujoco_rollout(physics, a, 3, snapshots=np.zeros((len(a), 5)))
+
+
 def test_gradient_matches_central_differences(cartpole):
   grads = cartpole.adjoint(params=True)
   errors = {

@@ -45,6 +45,7 @@ import warnings
 
 import numpy as np
 
+from ..rollout import mujoco_rollout
 from ..rollout import rollout as ost_rollout
 from ..batch import Batch
 from ..errors import MujocoWarning, NotConvergedError, NotConvergedWarning, OstrichError
@@ -270,35 +271,27 @@ class Problem:
     return self._mj
 
   def _mj_run(self, actions, k0, snap, qp_out, qv_out):
-    """Play actions[k0:] on MuJoCo from snapshot k0, writing the end-of-step states into
-    qp_out[k0:], qv_out[k0:] and the snapshots of the later steps into snap (if given)."""
+    """Play actions[k0:] on MuJoCo from snapshot k0 (self._snap), writing the end-of-step states
+    into qp_out[k0:], qv_out[k0:] and the snapshots of steps k0.. into snap (if given). The steps
+    run in C (mujoco_rollout): no Python call per step."""
     p = self.mujoco.physics
     d = p.data
-    qpos, qvel, act, warm = d.qpos, d.qvel, d.act, d.qacc_warmstart
-    sq, sv, sa, sw = snap if snap is not None else self._snap
-    has_act = act.size > 0  # (no suite task here has activations)
-    qpos[:], qvel[:], warm[:] = sq[k0], sv[k0], sw[k0]
-    if has_act:
-      act[:] = sa[k0]
-    step = p.step
-    for k in range(k0, self.horizon):
-      if snap is not None and k > k0:
-        sq[k], sv[k], sw[k] = qpos, qvel, warm
-        if has_act:
-          sa[k] = act
-      d.ctrl[:] = actions[k]
-      step(self.mujoco.n_sub_steps, engine="mujoco")
-      qp_out[k], qv_out[k] = qpos, qvel
+    nq, nv = p.nq, p.nv
+    s = self._snap[k0]  # qpos, qvel, qacc_warmstart, act (mujoco_rollout's layout)
+    d.qpos[:], d.qvel[:], d.qacc_warmstart[:] = s[:nq], s[nq:nq + nv], s[nq + nv:nq + 2 * nv]
+    if d.act.size:  # (no suite task here has activations; an empty view is read-only)
+      d.act[:] = s[nq + 2 * nv:]
+    mujoco_rollout(p, actions[k0:], self.mujoco.n_sub_steps, qp_out[k0:], qv_out[k0:],
+                   None if snap is None else snap[k0:])
 
   def fd_objective_and_gradient(self, actions, step=FD_STEP):
     """(J, dJ/dA) on stock MuJoCo: J of the nominal rollout and forward differences of one
     rollout per action component, restarted at its step. Raises Unconverged (not finite)."""
     p = self.mujoco.physics
     H, nu = self.horizon, self.nu
-    snap = (np.zeros((H, p.nq)), np.zeros((H, p.nv)), np.zeros((H, p.data.act.size)),
-            np.zeros((H, p.nv)))
-    snap[0][0], snap[1][0] = self.qpos0, self.qvel0  # act 0, warm start 0: as after reset
-    self._snap = snap
+    snap = np.zeros((H, p.nq + 2 * p.nv + p.data.act.size))
+    snap[0, :p.nq], snap[0, p.nq:p.nq + p.nv] = self.qpos0, self.qvel0  # warm start, act 0:
+    self._snap = snap                                                  # as after reset
     qp, qv = np.zeros((H, p.nq)), np.zeros((H, p.nv))
     with warnings.catch_warnings(record=True) as caught:
       warnings.simplefilter("always", MujocoWarning)
