@@ -166,24 +166,32 @@ def test_hopper_reward_by_hand():
   assert h < 0.6 and r == 0  # below the bounds with margin 0: no reward
 
 
-def test_planar_com_height_is_mujocos_kinematics():
-  # hopper's torso over its foot, walker's torso over its left foot: the planar chain's heights
-  # equal MuJoCo's xipos after mj_forward at random joint angles (rounding only)
-  from ostrich.suite.tasks import planar_com_height
+def test_planar_kinematics_is_mujocos():
+  # hopper's torso over its foot, walker's torso over its left foot, and the torso subtree's
+  # centre-of-mass velocity (the subtreelinvel sensor) of cheetah, walker and hopper: the
+  # planar functions equal MuJoCo's xipos and sensordata after mj_forward at random states
+  # (rounding only)
+  from ostrich.suite import planar
   rng = np.random.RandomState(4)
-  for domain, task, lower in (("hopper", "stand", "foot"), ("walker", "stand", "left_foot")):
+  for domain, task, lower in (("hopper", "stand", "foot"), ("walker", "walk", "left_foot"),
+                              ("cheetah", "run", None)):
     env = _load(domain, task)
-    height = planar_com_height(env.physics, "torso", lower)
     p = env.physics
+    velocity = planar.subtree_com_velocity(p, "torso")
     qs = p.model.qpos0 + rng.uniform(-1.5, 1.5, (20, p.nq))
-    got = height(qs)
-    for q, h in zip(qs, got):
-      p.data.qpos[:] = q
+    vs = rng.uniform(-3, 3, (20, p.nv))
+    vx, vz = velocity(qs, vs)
+    heights = planar.com_height(p, "torso", lower)(qs) if lower else None
+    for i, (q, v) in enumerate(zip(qs, vs)):
+      p.data.qpos[:], p.data.qvel[:] = q, v
       p.forward()
-      xipos = p.named.data.xipos
-      assert h == pytest.approx(xipos["torso", 2] - xipos[lower, 2], abs=1e-14)
+      assert vx[i] == pytest.approx(p.named.data.sensordata["torso_subtreelinvel"][0], abs=1e-13)
+      assert vz[i] == pytest.approx(p.named.data.sensordata["torso_subtreelinvel"][2], abs=1e-13)
+      if lower:
+        xipos = p.named.data.xipos
+        assert heights[i] == pytest.approx(xipos["torso", 2] - xipos[lower, 2], abs=1e-14)
   with pytest.raises(ValueError, match="not planar"):
-    planar_com_height(_load("reacher", "easy").physics, "finger", "arm")  # hinges about z
+    planar.com_height(_load("reacher", "easy").physics, "finger", "arm")  # hinges about z
 
 
 # ---- rewards as functions of (qpos, qvel, ctrl)

@@ -24,9 +24,8 @@ from .tasks import TASKS
 from ..physics import Physics
 
 ENGINES = ("ostrich", "mujoco")
-# tasks whose reward is also a function of (qpos, qvel, ctrl): Environment.reward_fn(xp)
-REWARD_FNS = (("cartpole", "balance"), ("cartpole", "swingup"), ("pendulum", "swingup"),
-              ("reacher", "easy"), ("walker", "stand"), ("hopper", "stand"))
+# tasks whose reward is also a function of (qpos, qvel, ctrl): Environment.reward_fn(xp), all
+REWARD_FNS = tuple(TASKS)
 
 __all__ = ["load", "find_suite_dir", "TASKS", "REWARD_FNS", "Environment", "TimeStep",
            "StepType", "Array", "BoundedArray", "tolerance"]

@@ -18,6 +18,7 @@ import math
 
 import numpy as np
 
+from . import planar
 from .rewards import tolerance
 
 _XMAT = {"xx": 0, "xy": 1, "xz": 2, "yx": 3, "yy": 4, "yz": 5, "zx": 6, "zy": 7, "zz": 8}
@@ -246,6 +247,14 @@ class FingerSpin(Task):
   def get_reward(self, physics):
     return float(sensor(physics, "hinge_velocity")[0] <= -15.0)
 
+  def reward_fn(self, physics, xp=np):
+    # the hinge_velocity sensor is the spinner hinge's qvel (sparse: its gradient is 0)
+    i = int(physics.model.jnt_dofadr[physics.id("joint", "hinge")])
+
+    def reward(qpos, qvel, ctrl):
+      return (qvel[..., i] <= -15.0) * 1.0
+    return reward
+
 
 # ---- cheetah: run (linear in the torso subtree's forward speed up to 10 m/s)
 
@@ -267,8 +276,19 @@ class CheetahRun(Task):
     return obs
 
   def get_reward(self, physics):
-    return tolerance(float(sensor(physics, "torso_subtreelinvel")[0]),
-                     bounds=(10, float("inf")), margin=10, value_at_margin=0, sigmoid="linear")
+    return self._reward(float(sensor(physics, "torso_subtreelinvel")[0]))
+
+  def _reward(self, speed, xp=np):
+    return tolerance(speed, bounds=(10, float("inf")), margin=10, value_at_margin=0,
+                     sigmoid="linear", xp=xp)
+
+  def reward_fn(self, physics, xp=np):
+    # the torso_subtreelinvel sensor, by planar kinematics
+    velocity = planar.subtree_com_velocity(physics, "torso", xp)
+
+    def reward(qpos, qvel, ctrl):
+      return self._reward(velocity(qpos, qvel)[0], xp=xp)
+    return reward
 
 
 # ---- walker: stand and walk
@@ -295,25 +315,29 @@ class WalkerStand(Task):
     return (3 * standing + upright) / 4
 
   def get_reward(self, physics):
-    stand = self._stand(float(physics.named.data.xpos["torso", 2]),
-                        float(xmat(physics, "torso", "zz")))
+    return self._reward(float(physics.named.data.xpos["torso", 2]),
+                        float(xmat(physics, "torso", "zz")),
+                        float(sensor(physics, "torso_subtreelinvel")[0]))
+
+  def _reward(self, height, upright_zz, speed, xp=np):
+    stand = self._stand(height, upright_zz, xp=xp)
     if self.move_speed == 0:
       return stand
-    move = tolerance(float(sensor(physics, "torso_subtreelinvel")[0]),
-                     bounds=(self.move_speed, float("inf")), margin=self.move_speed / 2,
-                     value_at_margin=0.5, sigmoid="linear")
+    move = tolerance(speed, bounds=(self.move_speed, float("inf")), margin=self.move_speed / 2,
+                     value_at_margin=0.5, sigmoid="linear", xp=xp)
     return stand * (5 * move + 1) / 6
 
   def reward_fn(self, physics, xp=np):
-    if self.move_speed != 0:
-      return None  # the walk reward needs the centre of mass's velocity
-    # the torso slides along z (rootz) and turns about y (rooty) at its origin
+    # the torso slides along z (rootz) and turns about y (rooty) at its origin; the walk's
+    # speed is the torso_subtreelinvel sensor, by planar kinematics
     z0 = float(physics.named.model.body_pos["torso"][2])
     iz = int(physics.model.jnt_qposadr[physics.id("joint", "rootz")])
     iy = int(physics.model.jnt_qposadr[physics.id("joint", "rooty")])
+    velocity = planar.subtree_com_velocity(physics, "torso", xp) if self.move_speed else None
 
     def reward(qpos, qvel, ctrl):
-      return self._stand(z0 + qpos[..., iz], xp.cos(qpos[..., iy]), xp=xp)
+      speed = velocity(qpos, qvel)[0] if velocity else 0.0
+      return self._reward(z0 + qpos[..., iz], xp.cos(qpos[..., iy]), speed, xp=xp)
     return reward
 
 
@@ -349,78 +373,12 @@ class HopperStand(Task):
     return standing * (small_control + 4) / 5
 
   def reward_fn(self, physics, xp=np):
-    # the height of the torso's centre of mass above the foot's, by the planar kinematics of
-    # the hopper's chain (planar_com_height)
-    height = planar_com_height(physics, "torso", "foot", xp)
+    # the height of the torso's centre of mass above the foot's, by planar kinematics
+    height = planar.com_height(physics, "torso", "foot", xp)
 
     def reward(qpos, qvel, ctrl):
       return self._reward(height(qpos), ctrl, xp=xp)
     return reward
-
-
-def planar_com_height(physics, upper, lower, xp=np):
-  """f(qpos) -> z of body `upper`'s centre of mass minus body `lower`'s, for models whose bodies
-  up to those two are unrotated in their parents (body_quat = 1) and move by slides and by
-  hinges about the y axis only (dm_control's planar walkers): mj_kinematics restricted to the
-  x-z plane. A hinge about +y by a turns (x, z) into (x cos a + z sin a, z cos a - x sin a);
-  joint angles and offsets count from qpos0, as in mj_kinematics."""
-  m = physics.model
-  chains = {}
-  for name in (upper, lower):
-    chain, b = [], physics.id("body", name)
-    while b > 0:
-      chain.append(b)
-      b = int(m.body_parentid[b])
-    chains[name] = chain[::-1]
-  steps = []  # per body of a chain: (body, [(type, qposadr, sign or axis, anchor)])
-  for body in dict.fromkeys(chains[upper] + chains[lower]):
-    if not np.allclose(m.body_quat[body], [1, 0, 0, 0]):
-      raise ValueError(f"body {body}: rotated in its parent; not a planar chain")
-    joints = []
-    for j in range(int(m.body_jntadr[body]), int(m.body_jntadr[body] + m.body_jntnum[body])):
-      axis, kind = np.asarray(m.jnt_axis[j], float), int(m.jnt_type[j])
-      if kind == 2:  # slide: along its axis in the body's (x, z)
-        joints.append(("slide", int(m.jnt_qposadr[j]), axis[[0, 2]], None))
-      elif kind == 3 and abs(abs(axis[1]) - 1) < 1e-12:  # hinge about +y or -y
-        joints.append(("hinge", int(m.jnt_qposadr[j]), np.sign(axis[1]),
-                       np.asarray(m.jnt_pos[j], float)[[0, 2]]))
-      else:
-        raise ValueError(f"joint {j}: neither a slide nor a hinge about y; not planar")
-    steps.append((body, joints))
-  pos0 = {b: np.asarray(m.body_pos[b], float)[[0, 2]] for b, _ in steps}
-  ipos = {b: np.asarray(m.body_ipos[b], float)[[0, 2]] for b, _ in steps}
-  parent = {b: int(m.body_parentid[b]) for b, _ in steps}
-  qpos0 = np.asarray(m.qpos0, float).copy()
-
-  def rotate(v, c, s):  # v (constant 2-vector or (x, z) pair) by the angle of cos c, sin s
-    return (v[0] * c + v[1] * s, v[1] * c - v[0] * s)
-
-  def height(qpos):
-    frames = {0: (0.0, 0.0, 0.0)}  # body -> (x, z, angle): the world's frame
-    for body, joints in steps:
-      px, pz, pa = frames[parent[body]]
-      c, s = xp.cos(pa), xp.sin(pa)
-      dx, dz = rotate(pos0[body], c, s)
-      x, z, a = px + dx, pz + dz, pa
-      for kind, adr, arg, anchor in joints:
-        q = qpos[..., adr] - qpos0[adr]
-        c, s = xp.cos(a), xp.sin(a)
-        if kind == "slide":
-          ux, uz = rotate(arg, c, s)
-          x, z = x + q * ux, z + q * uz
-        else:  # the anchor stays put while the body turns about it
-          ax, az = rotate(anchor, c, s)
-          a = a + arg * q
-          c, s = xp.cos(a), xp.sin(a)
-          bx, bz = rotate(anchor, c, s)
-          x, z = x + ax - bx, z + az - bz
-      frames[body] = (x, z, a)
-
-    def com_z(name):
-      x, z, a = frames[physics.id("body", name)]
-      return z + rotate(ipos[physics.id("body", name)], xp.cos(a), xp.sin(a))[1]
-    return com_z(upper) - com_z(lower)
-  return height
 
 
 TASKS = collections.OrderedDict(
