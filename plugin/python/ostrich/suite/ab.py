@@ -10,7 +10,8 @@ Ostrich at k times the suite's physics step where the control step is a whole mu
 (walker: 10 steps of 2.5 ms per action, so k = 2, 5, 10; hopper: 4 of 5 ms, k = 2, 4; finger:
 2 of 10 ms, k = 2); elsewhere the physics step is the control step, and a larger step would
 change the task (the table says so). Each cell: mean return over the seeds, its spread (the
-standard deviation over seeds), engine steps per wall second, and unconverged Ostrich steps.
+standard deviation over seeds), simulated seconds per wall second (×), and "bad": unconverged
+Ostrich steps or MuJoCo warnings.
 The table goes to stdout; --csv writes one row per (task, engine, factor, seed), atomically.
 """
 
@@ -75,9 +76,10 @@ def table(rows, factors):
         cells.append("—")
         continue
       ret = np.array([r["return"] for r in sel])
-      rate = sum(r["engine_steps"] for r in sel) / max(sum(r["wall_s"] for r in sel), 1e-12)
+      sim = sum(r["engine_steps"] * r["physics_timestep"] for r in sel)
+      rate = sim / max(sum(r["wall_s"] for r in sel), 1e-12)
       bad = sum(r["unconverged"] + r["mujoco_warnings"] for r in sel)
-      cells.append(f"{ret.mean():.1f} ± {ret.std():.1f} ({rate:,.0f}/s"
+      cells.append(f"{ret.mean():.1f} ± {ret.std():.1f} ({rate:,.1f}×"
                    + (f", {bad} bad" if bad else "") + ")")
     out.append("| " + " | ".join(cells) + " |")
   return "\n".join(out)
