@@ -2,10 +2,12 @@
 // dynamics, collision, rows and the step's residual) compiled once more with ostNum =
 // ostDual<OSTX_CHUNK>, and core/ost_adjoint_jacobian.h's exact step Jacobian behind the C seam of
 // ost_adjoint_dual.h. The work owns a dual copy of the model, so parameters can be seeded.
-// Compiled twice: OSTX_CHUNK 8 here, and 4 by ost_adjoint_dual4.cc for models of nv <= 4, whose
-// passes would leave most of 8 directions idle. Each direction is computed on its own, so the
-// two give the same bits; this one also holds the ostd_* entry points, which pick one by the
-// model (ostd_chunkFor).
+// Compiled twice: OSTX_CHUNK 2 here, the width steps use, and 8 by ost_adjoint_dual8.cc for the
+// tests. Measured on one core (ostrich bench adjoint, 100 steps): passes of 2 directions take
+// 1.7-3 times less time in all than passes of 4 or 8 on every model tried (robot 110 against
+// 235-270 us per step, humanoid 860 against 1,480, cart-pole 14 against 49), although a model
+// then needs more passes. Each direction is computed on its own, so the widths give the same
+// bits; this build also holds the ostd_* entry points, which dispatch on a work's width.
 // Invariant: reads the packed model and the step's inputs; writes only its work block and G.
 #include <stdlib.h>
 #include <string.h>
@@ -13,14 +15,14 @@
 #include "ost_dual.h"
 
 #ifndef OSTX_CHUNK
-#define OSTX_CHUNK 8
+#define OSTX_CHUNK 2
 #endif
 #define OST_NUM_TYPE ostDual<OSTX_CHUNK>
 
 #include "ost_adjoint_dual.h"
 #include "../core/ost_adjoint_jacobian.h"
 
-// this chunk's entry points: ostd8_name or ostd4_name
+// this chunk's entry points: ostd2_name or ostd8_name
 #define OSTD_CAT2(a, b) a##b
 #define OSTD_CAT(a, b) OSTD_CAT2(a, b)
 #define OSTD(name) OSTD_CAT(OSTD_CAT(ostd, OSTX_CHUNK), name)
@@ -103,48 +105,49 @@ extern "C" void OSTD(_recordColumns)(void* work, const ostAdjointLayout* A, char
 }
 
 
-#if OSTX_CHUNK == 8
-//---------------------------------- the entry points: one chunk per model --------------------------
+#if OSTX_CHUNK == 2
+//---------------------------------- the entry points ----------------------------------------------
 
-// the chunk of a model's dual passes: 4 where nv <= 4 (the widest pass seeds nv directions)
+// the width of a new work's passes: 2 for every model (see the top of this file)
 static int chunkFor(const void* model) {
-  return ((const ostModelDouble*)model)->s.nv <= 4 ? 4 : 8;
+  (void)model;
+  return 2;
 }
 
 static int chunkOf(const void* work) {
   return *(const int*)work;
 }
 
+// the entry point P of a work's (or a model's) chunk, called with args
+#define OSTD_BY_CHUNK(chunk, P, args) \
+  ((chunk) == 2 ? ostd2_##P args : ostd8_##P args)
+
 extern "C" void* ostd_workCreate(const void* model, int nrow_max) {
-  return chunkFor(model) == 4 ? ostd4_workCreate(model, nrow_max)
-                              : ostd8_workCreate(model, nrow_max);
+  return OSTD_BY_CHUNK(chunkFor(model), workCreate, (model, nrow_max));
 }
 
 extern "C" void ostd_workFree(void* work) {
-  if (work && chunkOf(work) == 4) ostd4_workFree(work); else ostd8_workFree(work);
+  if (work) OSTD_BY_CHUNK(chunkOf(work), workFree, (work));
 }
 
 extern "C" int ostd_stepJacobian(void* work, const ostdStep* st, double* G, size_t G_cap,
                                  int* n_out, double* resid, int dense) {
-  return chunkOf(work) == 4 ? ostd4_stepJacobian(work, st, G, G_cap, n_out, resid, dense)
-                            : ostd8_stepJacobian(work, st, G, G_cap, n_out, resid, dense);
+  return OSTD_BY_CHUNK(chunkOf(work), stepJacobian, (work, st, G, G_cap, n_out, resid, dense));
 }
 
 extern "C" size_t ostd_jacWorkSize(const void* model, int nrow_max) {
-  return chunkFor(model) == 4 ? ostd4_jacWorkSize(model, nrow_max)
-                              : ostd8_jacWorkSize(model, nrow_max);
+  return OSTD_BY_CHUNK(chunkFor(model), jacWorkSize, (model, nrow_max));
 }
 
 extern "C" void ostd_recordStructure(void* work, const ostAdjointLayout* A, char* lanes, int l,
                                      int i, int nworld, int j, const ostAdjointSettings* as,
                                      const double* gq, const double* gu) {
-  if (chunkOf(work) == 4) ostd4_recordStructure(work, A, lanes, l, i, nworld, j, as, gq, gu);
-  else ostd8_recordStructure(work, A, lanes, l, i, nworld, j, as, gq, gu);
+  OSTD_BY_CHUNK(chunkOf(work), recordStructure, (work, A, lanes, l, i, nworld, j, as, gq, gu));
 }
 
 extern "C" void ostd_recordColumns(void* work, const ostAdjointLayout* A, char* lanes, int l,
                                    int t, int j, const ostAdjointSettings* as) {
-  if (chunkOf(work) == 4) ostd4_recordColumns(work, A, lanes, l, t, j, as);
-  else ostd8_recordColumns(work, A, lanes, l, t, j, as);
+  OSTD_BY_CHUNK(chunkOf(work), recordColumns, (work, A, lanes, l, t, j, as));
 }
+#undef OSTD_BY_CHUNK
 #endif

@@ -47,8 +47,9 @@ void ostd_recordStructure(void* work, const ostAdjointLayout* A, char* lanes, in
 void ostd_recordColumns(void* work, const ostAdjointLayout* A, char* lanes, int l, int t, int j,
                         const ostAdjointSettings* as);
 
-// the same entry points of each dual build (ost_adjoint_dual.cc: 8 directions per pass,
-// ost_adjoint_dual4.cc: 4); those above choose one by the model's nv
+// the same entry points of each dual build (ost_adjoint_dual.cc: 2 directions per pass, the
+// width steps use; ost_adjoint_dual8.cc: 8, for the tests); those above dispatch on a work's
+// width
 #define OSTD_DECLARE(P)                                                                          \
   void* P##_workCreate(const void* model, int nrow_max);                                         \
   void P##_workFree(void* work);                                                                 \
@@ -60,8 +61,8 @@ void ostd_recordColumns(void* work, const ostAdjointLayout* A, char* lanes, int 
                            const double* gu);                                                    \
   void P##_recordColumns(void* work, const ostAdjointLayout* A, char* lanes, int l, int t,       \
                          int j, const ostAdjointSettings* as);
+OSTD_DECLARE(ostd2)
 OSTD_DECLARE(ostd8)
-OSTD_DECLARE(ostd4)
 #undef OSTD_DECLARE
 
 #ifdef __cplusplus

@@ -205,15 +205,14 @@ START_TEST(test_rowKinds) {
 END_TEST
 
 
-// the dual passes' width: a model of nv <= 4 runs 4 directions per pass (ost_adjoint_dual4.cc),
-// which must give the same bits as 8 (each direction is computed on its own): ost_adjoint with
-// parameters and ost_transition on the cart-pole and the arm, each way
+// the dual passes' width: steps run 2 directions per pass (ost_adjoint_dual.cc), which must give
+// the same bits as 8 (ost_adjoint_dual8.cc; each direction is computed on its own): ost_adjoint
+// with parameters on the cart-pole, the arm and the robot over the box (contacts), each way
 START_TEST(test_chunkWidths) {
   ost_fixtureSetup();
-  const char* names[] = {"cartpole.xml", "arm_position_servo.xml"};
-  for (int q = 0; q < 2; q++) {
+  const char* names[] = {"cartpole.xml", "arm_position_servo.xml", "robot_box.xml"};
+  for (int q = 0; q < 3; q++) {
     mjModel* m = ost_fixtureLoadModel(names[q]);
-    ck_assert_int_le(m->nv, 4);
     mjData* d = mj_makeData(m);
     ostOptions opt;
     ck_assert_int_eq(ost_readOptions(m, &opt, NULL, 0), OST_OK);
@@ -235,21 +234,21 @@ START_TEST(test_chunkWidths) {
         ostGradOptions go = {0, 1};
         ck_assert_int_eq(ost_adjoint(m, d, &go, g, g + nv, o, o + nv, o + 2 * nv, o + 2 * nv + nu),
                          OST_OK);
-        // next: the same with a work of 8 directions in place of the model's own (4)
+        // next: the same with a work of 8 directions in place of the model's own (2)
         if (w == 0) {
-          ck_assert_int_eq(*(int*)c->adj_work, 4);
+          ck_assert_int_eq(*(int*)c->adj_work, 2);
           ostd_workFree(c->adj_work);
           c->adj_work = ostd8_workCreate(&c->native, c->world.nrow_max);
           ck_assert_int_eq(*(int*)c->adj_work, 8);
         }
       }
       ck_assert_msg(!memcmp(out[0], out[1], (2 * (size_t)nv + nu + np) * sizeof(double)),
-                    "%s step %d: gradients differ between 4 and 8 directions per pass", names[q],
-                    k);
+                    "%s step %d: gradients differ between 2 and 8 directions per pass",
+                    names[q], k);
       ostd_workFree(c->adj_work);  // the model's own again at the next use
       c->adj_work = ostd_workCreate(&c->native, c->world.nrow_max);
     }
-    printf("%-28s 4 and 8 directions per pass: the same bits\n", names[q]);
+    printf("%-28s 2 and 8 directions per pass: the same bits\n", names[q]);
     free(out[0]);
     free(out[1]);
     ost_deleteData(d);
