@@ -55,6 +55,7 @@
 
 #include <mujoco/mujoco.h>
 
+#include "ost_cli_synth.h"
 #include "ost_cli_util.h"
 #include "ostrich.h"
 
@@ -91,24 +92,13 @@
 
 //---------------------------------- Arguments -----------------------------------------------------
 
-typedef struct synthArgs_ {       // arguments of `ostrich synth`
-  long        trials;             // random tasks (default 10)
-  long        iters;              // Adam iterations per trial (default 50)
-  long        seed;               // seed of the task stream (default 1)
-  double      lr;                 // Adam step (rad/s, default 0.3)
-  const char* engine;             // ostrich | mujoco | both
-  const char* plot;               // PNG path; NULL: none
-  const char* csv;                // CSV path; NULL: none
-  const char* model;              // MJCF path
-  const char* fd;                 // forward | central (mujoco)
-  double      eps;                // finite-difference step (rad/s, mujoco)
-  const char* grad;               // complete | truncated (ostrich)
-  int         help;               // --help was given
-} synthArgs;
-
 static const cliOption kSynthOptions[] = {
+  {"--scene", CLI_ARG_STRING, offsetof(synthArgs, scene), "box|terrain",
+   "the task: box (the default: over the box to a target) or terrain\n"
+   "(recover a random target spline's path over a procedural mesh\n"
+   "terrain, one seed per trial; see below)"},
   {"--trials", CLI_ARG_COUNT, offsetof(synthArgs, trials), "N",
-   "random tasks, >= 1 (default 10)"},
+   "random tasks, >= 1 (default: box 10, terrain 50)"},
   {"--iters", CLI_ARG_COUNT, offsetof(synthArgs, iters), "K",
    "Adam iterations (rollouts with a gradient) per trial (default 50)"},
   {"--seed", CLI_ARG_COUNT, offsetof(synthArgs, seed), "S",
@@ -123,7 +113,8 @@ static const cliOption kSynthOptions[] = {
   {"--grad", CLI_ARG_STRING, offsetof(synthArgs, grad), "truncated|complete",
    "ostrich's backward pass (ostGradOptions.truncate): truncated holds\n"
    "each step's contact geometry fixed, complete pulls it back too\n"
-   "(default complete: 25 of 25 tasks succeed, truncated 14 of 25)"},
+   "(default: box complete: 25 of 25 tasks succeed, truncated 14 of 25;\n"
+   "terrain truncated: the complete adjoint grows over its 125 steps)"},
   {"--fd", CLI_ARG_STRING, offsetof(synthArgs, fd), "forward|central",
    "finite differences of the mujoco engine: forward (1 + 30 rollouts per\n"
    "iteration, the default) or central (1 + 60)"},
@@ -188,9 +179,6 @@ static void synth_usage(FILE* f) {
     "early, a MuJoCo error, or an output could not be written; 2 bad usage, missing or\n"
     "malformed model, model refused by Ostrich or not representable by the native geometry.\n");
 }
-
-
-static void synth_trajPath(const char* csv, char* buf, size_t sz);
 
 
 // Check the combination of parsed arguments and the outputs; return 0 on success, else print why.
@@ -284,7 +272,7 @@ enum {                            // outcome of a rollout (and its gradient)
 
 
 // Allocate n zeroed elements of size sz; record a failure in *bad.
-static void* synth_alloc(size_t n, size_t sz, int* bad) {
+void* synth_alloc(size_t n, size_t sz, int* bad) {
   void* p = calloc(n > 0 ? n : 1, sz);
   if (!p) {
     *bad = 1;
@@ -438,7 +426,7 @@ static void synth_pullback(const synthEngine* e, const mjtNum* gctrl, double* gk
 // the local rotation tangent delta (q' = q * exp(delta / 2), mj_integratePos): with
 // R' = R (I + [delta]x), d R[:,0] = R[:,1] delta_z - R[:,2] delta_y, so
 //   dpsi/ddelta = (0, R10 R02 - R00 R12, R00 R11 - R10 R01) / (R00^2 + R10^2).
-static double synth_heading(const mjtNum quat[4], mjtNum dpsi[3]) {
+double synth_heading(const mjtNum quat[4], mjtNum dpsi[3]) {
   mjtNum R[9];
   mju_quat2Mat(R, quat);
   double c = R[0], s = R[3], n2 = c * c + s * s;
@@ -743,10 +731,9 @@ static void synth_resultFree(synthResult* r) {
 
 // Adam direction from gradient g (t: 1-based count of gradients): the moments are updated and
 // dir = mhat / (sqrt(vhat) + eps); the step is kappa - lr dir.
-static void synth_adam(const synthEngine* e, int t, const double* g, double* mom, double* var2,
-                       double* dir) {
+void synth_adam(int nvar, int t, const double* g, double* mom, double* var2, double* dir) {
   double c1 = 1 - pow(SYNTH_ADAM_B1, t), c2 = 1 - pow(SYNTH_ADAM_B2, t);
-  for (int c = 0; c < e->nvar; c++) {
+  for (int c = 0; c < nvar; c++) {
     mom[c] = SYNTH_ADAM_B1 * mom[c] + (1 - SYNTH_ADAM_B1) * g[c];
     var2[c] = SYNTH_ADAM_B2 * var2[c] + (1 - SYNTH_ADAM_B2) * g[c] * g[c];
     dir[c] = (mom[c] / c1) / (sqrt(var2[c] / c2) + SYNTH_ADAM_EPS);
@@ -767,7 +754,7 @@ static void synth_step(const synthEngine* e, const double* prev, double lr, cons
 // Step-size factor of iteration i of n: cosine decay from 1 to SYNTH_LR_FLOOR, so that late
 // iterates settle instead of orbiting the minimum at the full step (measured, 25 trials: the
 // same 17 successes at the best iterate, 10 instead of 7 at the last one)
-static double synth_decay(int i, int n) {
+double synth_decay(int i, int n) {
   double f = n > 1 ? (double)i / (n - 1) : 0;
   return SYNTH_LR_FLOOR + (1 - SYNTH_LR_FLOOR) * 0.5 * (1 + cos(3.14159265358979323846 * f));
 }
@@ -802,7 +789,7 @@ static int synth_trial(synthEngine* e, const synthArgs* a, const synthTask* task
                         : synth_gradFD(e, task, knots, &it->ev, grad);
     if (status == SYNTH_OK) {
       // a good iterate: Adam step from it
-      synth_adam(e, ++ngood, grad, mom, var2, dir);
+      synth_adam(nvar, ++ngood, grad, mom, var2, dir);
       mju_copy(prev, knots, nvar);
       synth_step(e, prev, lr * synth_decay(i, r->iters), dir, knots);
       nbad = 0;
@@ -892,7 +879,7 @@ static int synth_compare(const void* a, const void* b) {
 
 
 // Median of n values (sorted in place); NaN if n = 0.
-static double synth_median(double* x, int n) {
+double synth_median(double* x, int n) {
   if (n <= 0) {
     return NAN;
   }
@@ -992,7 +979,7 @@ static void synth_printSummary(const synthEngine* e, const synthResult* r,
 //---------------------------------- Output files --------------------------------------------------
 
 // Path of the trajectory CSV next to FILE.csv: FILE_traj.csv (written into buf).
-static void synth_trajPath(const char* csv, char* buf, size_t sz) {
+void synth_trajPath(const char* csv, char* buf, size_t sz) {
   size_t n = strlen(csv);
   int ext = n >= 4 && !strcmp(csv + n - 4, ".csv");
   snprintf(buf, sz, "%.*s_traj.csv", (int)(ext ? n - 4 : n), csv);
@@ -1219,14 +1206,26 @@ static void synth_report(const synthArgs* a, const synthEngine* engines, const s
 
 // `ostrich synth [MODEL.xml] [options]`
 int synth_main(int argc, char** argv) {
-  synthArgs a = {.trials = 10, .iters = 50, .seed = 1, .lr = 0.3, .engine = "ostrich",
-                 .fd = "forward", .eps = 0.1, .grad = "complete"};
+  // trials and grad: -1 and NULL until the scene's defaults fill them
+  synthArgs a = {.trials = -1, .iters = 50, .seed = 1, .lr = 0.3, .engine = "ostrich",
+                 .fd = "forward", .eps = 0.1, .grad = NULL, .scene = "box"};
   if (cli_parseArgs("synth", argc, argv, kSynthOptions, kSynthNumOptions, &a, &a.model,
                     &a.help)) {
     return CLI_USAGE;
   }
+  int terrain = !strcmp(a.scene, "terrain");
+  if (!terrain && strcmp(a.scene, "box")) {
+    cli_error("--scene: '%s' is not box or terrain", a.scene);
+    return CLI_USAGE;
+  }
   if (!a.model) {
-    a.model = "mjcf_models/robot_box.xml";
+    a.model = terrain ? "mjcf_models/terrain_mesh.xml" : "mjcf_models/robot_box.xml";
+  }
+  if (a.trials < 0) {
+    a.trials = terrain ? 50 : 10;
+  }
+  if (!a.grad) {
+    a.grad = terrain ? "truncated" : "complete";
   }
   if (!strcmp(a.engine, "ostrich,mujoco") || !strcmp(a.engine, "mujoco,ostrich")) {
     a.engine = "both";  // the comma list of the other commands
@@ -1237,6 +1236,9 @@ int synth_main(int argc, char** argv) {
   }
   if (synth_checkArgs(&a)) {
     return CLI_USAGE;
+  }
+  if (terrain) {
+    return synth_terrainMain(&a);
   }
 
   // engines: ostrich first when both; the same tasks for each
