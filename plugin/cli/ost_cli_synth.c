@@ -100,7 +100,8 @@ static const cliOption kSynthOptions[] = {
   {"--trials", CLI_ARG_COUNT, offsetof(synthArgs, trials), "N",
    "random tasks, >= 1 (default: box 10, terrain 50)"},
   {"--iters", CLI_ARG_COUNT, offsetof(synthArgs, iters), "K",
-   "Adam iterations (rollouts with a gradient) per trial (default 50)"},
+   "Adam iterations (rollouts with a gradient) per trial (default: box\n"
+   "50, terrain 100)"},
   {"--seed", CLI_ARG_COUNT, offsetof(synthArgs, seed), "S",
    "seed of the one random stream of all tasks (default 1)"},
   {"--lr", CLI_ARG_POSITIVE, offsetof(synthArgs, lr), "LR",
@@ -169,6 +170,29 @@ static void synth_usage(FILE* f) {
     "such object per engine under \"ostrich\" and \"mujoco\", and warm_iter_ratio = mujoco /\n"
     "ostrich median warm iteration time, both measured in this run. One progress line per\n"
     "iteration goes to stderr, unless OSTRICH_QUIET=1.\n"
+    "\n"
+    "--scene terrain (the paper's terrain traversal; MODEL.xml default\n"
+    "mjcf_models/terrain_mesh.xml, and the mujoco engine loads terrain_hfield.xml from the same\n"
+    "folder: the same surface as a height field, since MuJoCo 2.2.2 collides meshes as convex\n"
+    "hulls). Trial t derives from the one seed S + t - 1 (--seed S): a sum of 4 sinusoids on the\n"
+    "24 x 24 m, 80 x 80-sample grid (12,482 triangles; gen_terrain.py's wavelengths, amplitudes\n"
+    "0.5-1 times its, random directions and phases, flat within 1.2 m of the start), written\n"
+    "into the mesh (then ost_modelChanged) and the height field, so every seed has its own\n"
+    "terrain on both engines; a target spline (10 knots per wheel, left/right = b +- d,\n"
+    "rear = b, b ~ U(1, 3), d ~ U(-0.5, 0.5) rad/s); and a guess, the target plus N(0, 1.5^2)\n"
+    "rad/s per knot. Each engine rolls the target out on its own scene and, from the guess,\n"
+    "recovers that path over 10 s (ostrich: h = 0.08 s, 125 steps; mujoco: 5,000 steps of 2 ms;\n"
+    "the loss sampled every 0.08 s):\n"
+    "  1 / S sum_s |p_s - p*_s|^2 + 0.25 / S sum_s 2 (1 - cos(psi_s - psi*_s))\n"
+    "  + 1e-5 sum knot^2 + 1e-4 sum (knot_{j+1} - knot_j)^2\n"
+    "  + 1e-2 sum_j (rear_j - (left_j + right_j) / 2)^2\n"
+    "A trial succeeds if its best RMSE (tracking error of the xy path) over the iterates is below\n"
+    "0.5 m. Defaults: 50 trials, 100 iterations, --grad truncated. Prints one JSON line with\n"
+    "scene \"terrain\": successes, below_0.2m, median/mean/std_best_rmse, median_initial_rmse\n"
+    "(the guesses), median_last_rmse, median_warm_iter_ms, failed_trials (a failed target\n"
+    "rollout also ends its trial), bad_rollouts, and, with --engine both, warm_iter_ratio.\n"
+    "--csv: engine,trial,iter,loss,rmse,time_ms and FILE_traj.csv (iter 0: the target path);\n"
+    "--plot: trial 1's paths over its terrain and the RMSE over the iterations of all trials.\n"
     "\n"
     "options:\n");
   cli_printOptions(f, kSynthOptions, kSynthNumOptions);
@@ -1206,8 +1230,8 @@ static void synth_report(const synthArgs* a, const synthEngine* engines, const s
 
 // `ostrich synth [MODEL.xml] [options]`
 int synth_main(int argc, char** argv) {
-  // trials and grad: -1 and NULL until the scene's defaults fill them
-  synthArgs a = {.trials = -1, .iters = 50, .seed = 1, .lr = 0.3, .engine = "ostrich",
+  // trials, iters and grad: -1 and NULL until the scene's defaults fill them
+  synthArgs a = {.trials = -1, .iters = -1, .seed = 1, .lr = 0.3, .engine = "ostrich",
                  .fd = "forward", .eps = 0.1, .grad = NULL, .scene = "box"};
   if (cli_parseArgs("synth", argc, argv, kSynthOptions, kSynthNumOptions, &a, &a.model,
                     &a.help)) {
@@ -1223,6 +1247,9 @@ int synth_main(int argc, char** argv) {
   }
   if (a.trials < 0) {
     a.trials = terrain ? 50 : 10;
+  }
+  if (a.iters < 0) {
+    a.iters = terrain ? 100 : 50;
   }
   if (!a.grad) {
     a.grad = terrain ? "truncated" : "complete";

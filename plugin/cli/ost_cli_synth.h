@@ -17,7 +17,7 @@ extern "C" {
 
 typedef struct synthArgs_ {       // arguments of `ostrich synth`
   long        trials;             // random tasks (default: box 10, terrain 50)
-  long        iters;              // Adam iterations per trial (default 50)
+  long        iters;              // Adam iterations per trial (default: box 50, terrain 100)
   long        seed;               // seed of the task stream (default 1)
   double      lr;                 // Adam step (rad/s, default 0.3)
   const char* engine;             // ostrich | mujoco | both

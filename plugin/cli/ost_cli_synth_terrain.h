@@ -45,6 +45,7 @@ extern "C" {
 #define TER_W_YAW      0.25       // m^2 per (2 - 2 cos dpsi)
 #define TER_W_MAG      1e-5       // s^2/rad^2
 #define TER_W_SMOOTH   1e-4       // s^2/rad^2
+#define TER_W_SLIP     1e-2       // s^2/rad^2
 
 #define TER_RMSE_OK    0.5        // m: success: best RMSE below
 #define TER_RMSE_GOOD  0.2        // m: also counted: best RMSE below

@@ -437,6 +437,20 @@ static void ter_plotScript(FILE* p, const char* terminal, const char* png,
     fprintf(p, "EOD\n");
   }
 
+  // the map's view: trial 1's paths on every engine, 1.5 m around them, inside the terrain
+  double lo[2] = {-1.5, -1.5}, hi[2] = {1.5, 1.5};
+  for (int k = 0; k < nengine; k++) {
+    for (int i = 0; i <= res[k].done[0]; i++) {
+      const float* q = ter_path(res + k, 0, i);
+      for (int s = 0; s <= res[k].nsample && (i == 0 || isfinite(res[k].ev[i - 1].loss)); s++) {
+        for (int c = 0; c < 2; c++) {
+          lo[c] = fmax(-TER_HALF, fmin(lo[c], q[2 * s + c] - 1.5));
+          hi[c] = fmin(TER_HALF, fmax(hi[c], q[2 * s + c] + 1.5));
+        }
+      }
+    }
+  }
+
   // panels: a row per engine
   fprintf(p, "set multiplot layout %d,2\n", nengine);
   for (int k = 0; k < nengine; k++) {
@@ -444,8 +458,8 @@ static void ter_plotScript(FILE* p, const char* terminal, const char* png,
     ter_summarize(res + k, &s);
     fprintf(p, "reset\nset size ratio -1\nset xlabel 'x (m)'\nset ylabel 'y (m)'\n"
                "set cblabel 'terrain z (cm)'\nset palette defined (0 '#3b6e3b', 1 '#e8e0b0')\n"
-               "set key bottom right box opaque font ',9'\nset xrange [-12:12]\nset yrange "
-               "[-12:12]\n");
+               "set key bottom right box opaque font ',9'\nset xrange [%.2f:%.2f]\n"
+               "set yrange [%.2f:%.2f]\n", lo[0], hi[0], lo[1], hi[1]);
     fprintf(p, "set title '%s (%s, h = %g s), trial 1 (seed %ld)' noenhanced\n",
             engines[k].name, engines[k].ostrich ? "adjoint" : "finite differences", engines[k].h,
             seed);
