@@ -288,7 +288,7 @@ expect_mentions "gradcheck --help documents --key" "--key K" "qpos0"
 # which calls the gradient API (the binary still links it).
 
 BOXM=$MODELS/robot_box.xml
-SYNTH_OPTIONS=(--trials --iters --seed --lr --engine --grad --fd --eps --csv --plot)
+SYNTH_OPTIONS=(--scene --trials --iters --seed --lr --engine --grad --fd --eps --csv --plot)
 GRADCHECK_OPTIONS=(--steps --h --seed --wrt --eps --tol --newton --ctrl --key)
 run synth --help
 expect_rc 0 "ostrich synth --help"
@@ -309,6 +309,18 @@ expect_usage_error "synth: unknown --grad" synth --grad exact "$BOXM"
 expect_usage_error "synth: missing model file" synth "$tmp/no_such_model.xml"
 expect_usage_error "synth: a model without a free joint and actuators" synth "$BOX" \
   --engine mujoco
+expect_usage_error "synth: unknown --scene" synth --scene moon "$BOXM"
+expect_usage_error "synth --scene terrain: a scene without a terrain mesh" synth \
+  --scene terrain "$BOXM"
+mkdir -p "$tmp/mesh_only"
+cp "$MODELS/terrain_mesh.xml" "$MODELS/terrain_sinusoid.obj" "$MODELS/wheeled_robot_body.xml" \
+  "$tmp/mesh_only/"
+expect_usage_error "synth --scene terrain: no terrain_hfield.xml next to the model" synth \
+  --scene terrain --engine mujoco "$tmp/mesh_only/terrain_mesh.xml"
+expect_usage_error "synth --scene terrain: unknown --grad" synth --scene terrain --grad exact \
+  "$MODELS/terrain_mesh.xml"
+expect_usage_error "synth --scene terrain: --csv in a missing folder" synth --scene terrain \
+  "$MODELS/terrain_mesh.xml" --csv "$tmp/no_such_dir/t.csv"
 expect_usage_error "gradcheck: missing model argument" gradcheck
 expect_usage_error "gradcheck: unknown option" gradcheck "$BOX" --frobnicate 1
 expect_usage_error "gradcheck: unknown --wrt" gradcheck "$BOX" --wrt everything
@@ -396,6 +408,36 @@ expect_rc 0 "synth --engine both, 1 trial, 2 iterations"
 expect_py "synth both: a summary per engine and the ratio of warm iteration times" \
   "j['engine'] == 'both' and all(k in j[e] for e in ('ostrich', 'mujoco') for k in $SUMMARY_KEYS)
    and j['warm_iter_ratio'] > 0"
+
+# the terrain scene: 3 iterations of the truncated adjoint from seed 4's guess (one per-seed
+# terrain, 125 steps of 0.08 s), then both engines for 2 iterations (mujoco: 2 x 31 rollouts of
+# 5000 steps on terrain_hfield.xml, about 7 s)
+TERRAIN_KEYS='["engine","trials","successes","below_0.2m","median_best_rmse",
+               "median_initial_rmse","median_warm_iter_ms","failed_trials","bad_rollouts"]'
+OSTRICH_QUIET=1 run synth --scene terrain --seed 4 --trials 1 --iters 3 \
+  "$MODELS/terrain_mesh.xml" --csv "$tmp/st.csv" --plot "$tmp/st.png"
+expect_rc 0 "synth --scene terrain, 1 trial, 3 iterations"
+expect_py "synth terrain: 125 steps of 0.08 s, truncated adjoint, best RMSE <= the guess's" \
+  "all(k in j for k in $TERRAIN_KEYS) and j['scene'] == 'terrain' and j['steps'] == 125 and
+   j['h'] == 0.08 and j['gradient'] == 'adjoint, truncated' and j['failed_trials'] == 0 and
+   0 < j['median_best_rmse'] <= j['median_initial_rmse'] and len(rows) == 4 and
+   rows[0] == ['engine', 'trial', 'iter', 'loss', 'rmse', 'time_ms']" "$tmp/st.csv"
+expect_py "synth terrain: trajectory CSV, the target path (iter 0) and 3 iterates of 126 samples" \
+  "len(rows) == 1 + 4 * 126 and rows[1][2] == '0' and float(rows[126][3]) == 10.0 and
+   float(rows[126][4]) > 3" "$tmp/st_traj.csv"
+if [[ -s $tmp/st.png ]] && head -c 8 "$tmp/st.png" | grep -q PNG; then
+  pass "synth terrain: wrote a PNG"
+else
+  fail "synth terrain: expected a PNG at $tmp/st.png"
+fi
+OSTRICH_QUIET=1 run synth --scene terrain --engine both --seed 4 --trials 1 --iters 2 \
+  "$MODELS/terrain_mesh.xml"
+expect_rc 0 "synth --scene terrain --engine both, 1 trial, 2 iterations"
+expect_py "synth terrain both: mujoco on terrain_hfield.xml (5000 steps, 31 rollouts), ratio" \
+  "j['engine'] == 'both' and all(k in j[e] for e in ('ostrich', 'mujoco') for k in $TERRAIN_KEYS)
+   and j['mujoco']['steps'] == 5000 and j['mujoco']['model'].endswith('terrain_hfield.xml') and
+   '31 rollouts' in j['mujoco']['gradient'] and j['warm_iter_ratio'] > 1 and
+   j['ostrich']['median_initial_rmse'] > 0.05 and j['mujoco']['median_initial_rmse'] > 0.05"
 
 
 #---------------------------------- bench scale ---------------------------------------------------

@@ -7,10 +7,23 @@
 //   knots    W^T of a random control gradient (synth_pullback) plus the regularizers
 //            (synth_regLoss), against differences of sum_k gctrl_k . (W kappa)_k + regularizers
 // These were `ostrich synth --selftest` (the same draws: one stream, seed 1, in this order).
-// The file under test is included whole, so that its static functions can be called.
+// The terrain scene (ost_cli_synth_terrain*.c, --scene terrain):
+//   surface  the fixed waves give terrain_hfield.xml's samples (gen_terrain.py's surface); a
+//            seed's surface lands on the mesh (world vertices) and on the height field alike,
+//            and the fixed waves then give back the mesh as loaded
+//   target   the target knots reproduce the target path (RMSE 0, loss = regularizers only) on
+//            both engines, and perturbed knots cost more
+//   gradient on a 2 s horizon, the complete adjoint of the loss against central differences
+//            (eps 1e-4 rad/s) and the truncated one within a cosine of them
+// The files under test are included whole, so that their static functions can be called.
 #include "ost_cli_synth.c"
+#include "ost_cli_synth_terrain.c"
+#include "ost_cli_synth_terrain_run.c"
 
 #include "fixture.h"
+
+// complete adjoint vs central differences on the 2 s terrain horizon, normwise
+#define TER_GRAD_TOL 1e-3
 
 
 // Normwise relative error of a against b over n entries.
@@ -167,11 +180,196 @@ START_TEST(test_lossDerivatives) {
 END_TEST
 
 
+//---------------------------------- Terrain scene -------------------------------------------------
+
+// Arguments of the terrain scene with engine `name`.
+static synthArgs terrainArgs(void) {
+  synthArgs a = {.trials = 1, .iters = 1, .seed = 1, .lr = 0.3, .engine = "ostrich",
+                 .model = OST_MODEL_DIR "/terrain_mesh.xml", .fd = "central", .eps = 0.1,
+                 .grad = "truncated", .scene = "terrain"};
+  return a;
+}
+
+
+// World positions of the terrain mesh's vertices (3 x nvert, allocated).
+static double* meshWorld(const terEngine* e) {
+  const mjModel* m = e->m;
+  int g = e->geom, id = m->geom_dataid[g], n = m->mesh_vertnum[id];
+  double* w = (double*)malloc(sizeof(double) * 3 * (size_t)n);
+  mjtNum R[9];
+  mju_quat2Mat(R, m->geom_quat + 4 * g);
+  for (int v = 0; v < n && w; v++) {
+    const float* p = m->mesh_vert + 3 * (m->mesh_vertadr[id] + v);
+    mjtNum local[3] = {p[0], p[1], p[2]};
+    mju_mulMatVec(w + 3 * v, R, local, 3, 3);
+    mju_addTo3(w + 3 * v, m->geom_pos + 3 * g);
+  }
+  return w;
+}
+
+
+START_TEST(test_terrainSurface) {
+  ost_fixtureSetup();
+  synthArgs a = terrainArgs();
+  terEngine eo, em;
+  ck_assert(!ter_engineSetup(&eo, "ostrich", a.model, &a));
+  ck_assert(!ter_engineSetup(&em, "mujoco", OST_MODEL_DIR "/terrain_hfield.xml", &a));
+  static float data[TER_NGRID * TER_NGRID];
+  int nvert = eo.m->mesh_vertnum[eo.m->geom_dataid[eo.geom]];
+  const float* hdata = em.m->hfield_data + em.m->hfield_adr[em.m->geom_dataid[em.geom]];
+
+  // 1. the fixed waves: the height field as loaded (float data, so 1e-6)
+  terTask task;
+  ter_fixedWaves(&task);
+  ter_heights(&task, data);
+  double err_fixed = 0;
+  for (int i = 0; i < TER_NGRID * TER_NGRID; i++) {
+    err_fixed = fmax(err_fixed, fabs(data[i] - hdata[i]));
+  }
+  ck_assert_msg(err_fixed < 1e-6, "fixed waves vs terrain_sinusoid.bin: %g", err_fixed);
+
+  // 2. seed 7's surface on both scenes: mesh vertex z = ZLO + SPAN data, x and y kept; the
+  //    height field holds the same data
+  double* w0 = meshWorld(&eo);
+  ter_task(7, eo.lo, eo.hi, &task);
+  ter_heights(&task, data);
+  ter_setTerrain(&eo, data);
+  ter_setTerrain(&em, data);
+  double* w1 = meshWorld(&eo);
+  double err_xy = 0, err_z = 0, moved = 0;
+  for (int v = 0; v < nvert; v++) {
+    err_xy = fmax(err_xy, fmax(fabs(w1[3 * v] - w0[3 * v]), fabs(w1[3 * v + 1] - w0[3 * v + 1])));
+    err_z = fmax(err_z, fabs(w1[3 * v + 2] - (TER_ZLO + TER_SPAN * data[eo.vgrid[v]])));
+    moved = fmax(moved, fabs(w1[3 * v + 2] - w0[3 * v + 2]));
+  }
+  ck_assert_msg(err_xy < 1e-5 && err_z < 1e-5, "seed 7 on the mesh: xy moved %g, z off %g",
+                err_xy, err_z);
+  ck_assert_msg(moved > 0.02, "seed 7's surface is the fixed one (vertices moved %g m)", moved);
+  ck_assert(!memcmp(hdata, data, sizeof(data)));
+
+  // 3. the fixed waves again give back the mesh as loaded
+  ter_fixedWaves(&task);
+  ter_heights(&task, data);
+  ter_setTerrain(&eo, data);
+  free(w1);
+  w1 = meshWorld(&eo);
+  double err_back = 0;
+  for (int i = 0; i < 3 * nvert; i++) {
+    err_back = fmax(err_back, fabs(w1[i] - w0[i]));
+  }
+  ck_assert_msg(err_back < 1e-5, "mesh after seed 7 then the fixed waves: %g m off", err_back);
+  free(w0);
+  free(w1);
+  ter_engineFree(&eo);
+  ter_engineFree(&em);
+}
+END_TEST
+
+
+START_TEST(test_terrainTarget) {
+  ost_fixtureSetup();
+  synthArgs a = terrainArgs();
+  const char* names[2] = {"ostrich", "mujoco"};
+  const char* paths[2] = {OST_MODEL_DIR "/terrain_mesh.xml", OST_MODEL_DIR "/terrain_hfield.xml"};
+  static float data[TER_NGRID * TER_NGRID];
+  terTask task;
+  cliRng rng;
+  cli_rngSeed(&rng, 3);
+  for (int k = 0; k < 2; k++) {
+    terEngine e;
+    ck_assert(!ter_engineSetup(&e, names[k], paths[k], &a));
+    ter_task(3, e.lo, e.hi, &task);
+    ter_heights(&task, data);
+    ter_setTerrain(&e, data);
+    ck_assert_int_eq(ter_setTarget(&e, task.target), TER_OK);
+
+    // the robot went somewhere: the target path is at least 3 m long
+    double* end = e.ref + 3 * e.nsample;
+    ck_assert_msg(hypot(end[0], end[1]) > 3, "%s: target path ends at (%g, %g)", names[k],
+                  end[0], end[1]);
+
+    // the target knots: RMSE 0, the loss is the regularizers alone
+    double rmse = -1, loss0;
+    ck_assert_int_eq(ter_rollout(&e, task.target, e.qs, e.vs), TER_OK);
+    loss0 = ter_stateLoss(&e, e.qs, NULL, &rmse) + ter_regLoss(task.target, NULL);
+    ck_assert_msg(rmse == 0, "%s: RMSE of the target knots %g", names[k], rmse);
+    ck_assert_double_eq_tol(loss0, ter_regLoss(task.target, NULL), 1e-15);
+
+    // perturbed knots (0.3 rad/s per knot) cost more; the guess costs more still
+    double knots[TER_NVAR], loss;
+    for (int trial = 0; trial < 3; trial++) {
+      for (int c = 0; c < TER_NVAR; c++) {
+        knots[c] = task.target[c] + cli_uniform(&rng, -0.3, 0.3);
+      }
+      ck_assert_int_eq(ter_rollout(&e, knots, e.qs, e.vs), TER_OK);
+      loss = ter_stateLoss(&e, e.qs, NULL, &rmse) + ter_regLoss(knots, NULL);
+      ck_assert_msg(loss > loss0 && rmse > 1e-3, "%s: perturbed knots: loss %g (target %g), "
+                    "RMSE %g", names[k], loss, loss0, rmse);
+    }
+    ter_engineFree(&e);
+  }
+}
+END_TEST
+
+
+START_TEST(test_terrainGradient) {
+  ost_fixtureSetup();
+  synthArgs a = terrainArgs();
+  static float data[TER_NGRID * TER_NGRID];
+  terEngine e;
+  terTask task;
+  terEval ev;
+  ck_assert(!ter_engineSetup(&e, "ostrich", a.model, &a));
+  ter_task(5, e.lo, e.hi, &task);
+  ter_heights(&task, data);
+  ter_setTerrain(&e, data);
+
+  // a 2 s horizon (25 steps; the knots after 2 s have no influence, gradient 0)
+  e.nsample = 25;
+  e.nstep = 25;
+  ck_assert_int_eq(ter_setTarget(&e, task.target), TER_OK);
+  double an[2][TER_NVAR], fd[TER_NVAR], knots[TER_NVAR], eps = 1e-4;
+  for (int tr = 0; tr < 2; tr++) {
+    e.truncate = tr;
+    ck_assert_int_eq(ter_gradAdjoint(&e, task.guess, &ev, an[tr]), TER_OK);
+  }
+  for (int c = 0; c < TER_NVAR; c++) {
+    double l[2];
+    for (int side = 0; side < 2; side++) {
+      int status;
+      memcpy(knots, task.guess, sizeof(knots));
+      knots[c] += side ? -eps : eps;
+      l[side] = ter_rolloutLoss(&e, knots, &status);
+      ck_assert_int_eq(status, TER_OK);
+    }
+    fd[c] = (l[0] - l[1]) / (2 * eps);
+  }
+  double err = relErr(an[0], fd, TER_NVAR), dot = 0, n0 = 0, n1 = 0;
+  for (int c = 0; c < TER_NVAR; c++) {
+    dot += an[1][c] * fd[c];
+    n0 += fd[c] * fd[c];
+    n1 += an[1][c] * an[1][c];
+  }
+  double cosine = dot / sqrt(n0 * n1);
+  ter_engineFree(&e);
+  ck_assert_msg(n0 > 1e-6, "the loss does not depend on the knots (|grad| %g)", sqrt(n0));
+  ck_assert_msg(err < TER_GRAD_TOL, "complete adjoint vs central differences: %g", err);
+  ck_assert_msg(cosine > 0.9, "truncated adjoint vs central differences: cosine %g", cosine);
+}
+END_TEST
+
+
 static Suite* suite(void) {
   Suite* s = suite_create("ost_cli_synth");
   TCase* tc = tcase_create("loss");
   tcase_add_test(tc, test_lossDerivatives);
   suite_add_tcase(s, tc);
+  TCase* tt = tcase_create("terrain");
+  tcase_set_timeout(tt, 60);
+  tcase_add_test(tt, test_terrainSurface);
+  tcase_add_test(tt, test_terrainTarget);
+  tcase_add_test(tt, test_terrainGradient);
+  suite_add_tcase(s, tt);
   return s;
 }
 
