@@ -13,8 +13,9 @@
 //            and the fixed waves then give back the mesh as loaded
 //   target   the target knots reproduce the target path (RMSE 0, loss = regularizers only) on
 //            both engines, and perturbed knots cost more
-//   gradient on a 2 s horizon, the complete adjoint of the loss against central differences
-//            (eps 1e-4 rad/s) and the truncated one within a cosine of them
+//   gradient on a 2 s horizon (seed 5, mostly on the flat start disc), the complete adjoint of
+//            the loss against central differences (eps 1e-4 rad/s; normwise 1e-6, measured
+//            2e-9), and the truncated one's cosine with them above 0.999 (measured 0.999995)
 // The files under test are included whole, so that their static functions can be called.
 #include "ost_cli_synth.c"
 #include "ost_cli_synth_terrain.c"
@@ -22,8 +23,8 @@
 
 #include "fixture.h"
 
-// complete adjoint vs central differences on the 2 s terrain horizon, normwise
-#define TER_GRAD_TOL 1e-3
+// complete adjoint vs central differences on the 2 s terrain horizon, normwise (measured 2e-9)
+#define TER_GRAD_TOL 1e-6
 
 
 // Normwise relative error of a against b over n entries.
@@ -354,7 +355,7 @@ START_TEST(test_terrainGradient) {
   ter_engineFree(&e);
   ck_assert_msg(n0 > 1e-6, "the loss does not depend on the knots (|grad| %g)", sqrt(n0));
   ck_assert_msg(err < TER_GRAD_TOL, "complete adjoint vs central differences: %g", err);
-  ck_assert_msg(cosine > 0.9, "truncated adjoint vs central differences: cosine %g", cosine);
+  ck_assert_msg(cosine > 0.999, "truncated adjoint vs central differences: cosine %g", cosine);
 }
 END_TEST
 
