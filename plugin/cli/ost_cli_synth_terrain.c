@@ -278,9 +278,19 @@ int ter_engineSetup(terEngine* e, const char* name, const char* path, const synt
   // step size: Ostrich at TER_H (the model's ostrich/* options otherwise), MuJoCo opt.timestep
   if (e->ostrich) {
     char err[CLI_MSG_SZ] = "";
-    if (cli_setupOstrich(m, e->d, TER_H, -1, -1, NULL, &e->h)) {
+    // the model's options at h = TER_H, with at least TER_SPLIT halvings of a step whose Newton
+    // solve fails (a split step is recorded on the tape as its substeps)
+    ostOptions opt;
+    if (cli_ostrichOptions(m, TER_H, -1, -1, NULL, &opt, err, sizeof(err))) {
+      cli_error("synth: '%s': %s", path, err);
       return 1;
     }
+    opt.split_depth = opt.split_depth > TER_SPLIT ? opt.split_depth : TER_SPLIT;
+    if (ost_setOptions(m, e->d, &opt) != OST_OK) {
+      cli_error("synth: '%s': options refused: %s", path, ost_lastError(e->d));
+      return 1;
+    }
+    e->h = opt.timestep;
     if (ost_checkNative(m, err, sizeof(err)) != OST_OK) {
       cli_error("synth: gradients need the native geometry: %s", err);
       return 1;
