@@ -10,7 +10,8 @@
 // The terrain scene (ost_cli_synth_terrain*.c, --scene terrain):
 //   surface  the fixed waves give terrain_hfield.xml's samples (gen_terrain.py's surface); a
 //            seed's surface lands on the mesh (world vertices) and on the height field alike,
-//            and the fixed waves then give back the mesh as loaded
+//            and the fixed waves then give back the mesh as loaded; a seed's mesh is the same
+//            bit for bit whatever seeds came before it
 //   target   the target knots reproduce the target path (RMSE 0, loss = regularizers only) on
 //            both engines, and perturbed knots cost more
 //   gradient on a 2 s horizon (seed 5, mostly on the flat start disc), the complete adjoint of
@@ -259,6 +260,22 @@ START_TEST(test_terrainSurface) {
     err_back = fmax(err_back, fabs(w1[i] - w0[i]));
   }
   ck_assert_msg(err_back < 1e-5, "mesh after seed 7 then the fixed waves: %g m off", err_back);
+
+  // 4. a seed's mesh does not depend on the seeds before it: seed 9 after seed 7 (and the fixed
+  //    waves) is seed 9 from the loaded mesh, bit for bit
+  int id = eo.m->geom_dataid[eo.geom];
+  float* mesh = eo.m->mesh_vert + 3 * eo.m->mesh_vertadr[id];
+  float* after = (float*)malloc(sizeof(float) * 3 * (size_t)nvert);
+  ck_assert(after);
+  ter_task(9, eo.lo, eo.hi, &task);
+  ter_heights(&task, data);
+  ter_setTerrain(&eo, data);
+  memcpy(after, mesh, sizeof(float) * 3 * (size_t)nvert);
+  memcpy(mesh, eo.vert0, sizeof(float) * 3 * (size_t)nvert);
+  ter_setTerrain(&eo, data);
+  ck_assert_msg(!memcmp(after, mesh, sizeof(float) * 3 * (size_t)nvert),
+                "seed 9's mesh depends on the seeds applied before it");
+  free(after);
   free(w0);
   free(w1);
   ter_engineFree(&eo);

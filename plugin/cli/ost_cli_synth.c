@@ -4,6 +4,8 @@
 // the gradient of the whole rollout's loss: Ostrich's adjoint (ost_tapeStep, ost_tapeBackward)
 // at h = 0.1 s, or, as a stock MuJoCo 2.2 user would, finite differences of mj_step rollouts at
 // the model's opt.timestep (2 ms). Mirrors MuJoCo's sample programs; no rendering (gnuplot).
+// This file parses the arguments of every scene and runs the box scene (the default); --scene
+// terrain runs ost_cli_synth_terrain*.c with the helpers ost_cli_synth.h declares.
 //
 // Task (one seeded random stream for all trials; both engines get the same trials):
 //   start   x, y ~ U(-0.2, 0.2) m, yaw ~ U(-0.2, 0.2) rad, at rest (free joint qpos)

@@ -1,7 +1,7 @@
 // ost_cli_synth_terrain.c: `ostrich synth --scene terrain`, trajectory recovery of the wheeled
 // robot over a procedural triangle-mesh terrain (the Ostrich paper, "Beyond Primitives: Terrain
 // Traversal"). Shares arguments and optimizer helpers with ost_cli_synth.c (ost_cli_synth.h);
-// its outputs (summary, CSV, PNG) are in ost_cli_synth_terrain_out.c.
+// the optimizer and its outputs (summary, CSV, PNG) are in ost_cli_synth_terrain_run.c.
 //
 // Instance t (1-based) of a run derives from the one seed --seed + t - 1 (so `--seed S+t-1
 // --trials 1` reproduces it), drawn in this order:
@@ -179,12 +179,14 @@ static int ter_findTerrain(terEngine* e, const char* path) {
   }
   int nvert = m->mesh_vertnum[id], bad = 0;
   e->vgrid = (int*)synth_alloc((size_t)nvert, sizeof(int), &bad);
+  e->vert0 = (float*)synth_alloc((size_t)(3 * nvert), sizeof(float), &bad);
   if (bad) {
     cli_error("synth: out of memory");
     return 1;
   }
   mjtNum R[9];
   mju_quat2Mat(R, m->geom_quat + 4 * g);
+  memcpy(e->vert0, m->mesh_vert + 3 * m->mesh_vertadr[id], sizeof(float) * 3 * (size_t)nvert);
   for (int v = 0; v < nvert; v++) {
     const float* p = m->mesh_vert + 3 * (m->mesh_vertadr[id] + v);
     mjtNum local[3] = {p[0], p[1], p[2]}, w[3];
@@ -200,9 +202,11 @@ static int ter_findTerrain(terEngine* e, const char* path) {
 }
 
 
-// Give the engine's scene the surface `data` (ter_heights): the mesh's vertices moved vertically
-// in the world (local += R^T (0, 0, dz), as the geom maps them) then ost_modelChanged, or the
-// height field's samples (read by MuJoCo at every collision).
+// Give the engine's scene the surface `data` (ter_heights): the mesh's vertices as loaded
+// (e->vert0) moved vertically in the world (local = vert0 + R^T (0, 0, dz), as the geom maps
+// them; from the loaded vertices every time, so that a seed's mesh does not depend on the seeds
+// before it through float rounding) then ost_modelChanged, or the height field's samples (read
+// by MuJoCo at every collision).
 void ter_setTerrain(terEngine* e, const float* data) {
   mjModel* m = e->m;
   int g = e->geom, id = m->geom_dataid[g];
@@ -214,7 +218,8 @@ void ter_setTerrain(terEngine* e, const float* data) {
   mju_quat2Mat(R, m->geom_quat + 4 * g);
   for (int v = 0; v < m->mesh_vertnum[id]; v++) {
     float* p = m->mesh_vert + 3 * (m->mesh_vertadr[id] + v);
-    mjtNum local[3] = {p[0], p[1], p[2]}, w[3];
+    const float* p0 = e->vert0 + 3 * v;
+    mjtNum local[3] = {p0[0], p0[1], p0[2]}, w[3];
     mju_mulMatVec(w, R, local, 3, 3);
     double dz = TER_ZLO + TER_SPAN * (double)data[e->vgrid[v]] - (w[2] + m->geom_pos[3 * g + 2]);
     for (int i = 0; i < 3; i++) {
@@ -229,7 +234,7 @@ void ter_setTerrain(terEngine* e, const float* data) {
 
 // Free an engine.
 void ter_engineFree(terEngine* e) {
-  void* bufs[] = {e->knot, e->alpha, e->vgrid, e->qs, e->vs, e->qs_fd, e->vs_fd, e->gqs, e->gus,
+  void* bufs[] = {e->knot, e->alpha, e->vgrid, e->vert0, e->qs, e->vs, e->qs_fd, e->vs_fd, e->gqs, e->gus,
                   e->gq, e->gu, e->gctrl, e->var, e->ref};
   for (size_t i = 0; i < sizeof(bufs) / sizeof(bufs[0]); i++) {
     free(bufs[i]);

@@ -86,6 +86,7 @@ typedef struct terEngine_ {       // one engine on its scene
   int         act[TER_NWHEEL];    // actuator of each wheel (v_left, v_right, v_rear)
   int         geom;               // the terrain geom
   int*        vgrid;              // ostrich: grid sample of each mesh vertex          (nvert)
+  float*      vert0;              // ostrich: the mesh's vertices as loaded (local) (nvert x 3)
   double      h;                  // step size (s)
   int         nsub;               // steps per loss sample (TER_DT / h)
   int         nsample;            // loss samples after the start (S)
