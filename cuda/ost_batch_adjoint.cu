@@ -16,10 +16,10 @@
 
 #include "ost_dual.h"
 
-// directions of one dual pass: 4 keeps the kernel's stack within OST_STACK_BYTES (8 needs
-// 76 KB); the derivatives do not depend on it (each direction is computed on its own), so the
-// gradients equal the CPU's (OSTX_CHUNK 8) bit for bit
-#define OSTX_CHUNK 4
+// directions of one dual pass: 2, as on the CPU (plugin/ost_adjoint_dual.cc; 8 would need a
+// 76 KB stack, over OST_STACK_BYTES); the derivatives do not depend on it (each direction is
+// computed on its own), so the gradients equal the CPU's bit for bit
+#define OSTX_CHUNK 2
 #define OST_NUM_TYPE ostDual<OSTX_CHUNK>
 
 #include "ost_adjoint_jacobian.h"
