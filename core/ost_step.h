@@ -497,42 +497,6 @@ typedef struct ostStepDriver_ {   // the caller's part of a step (osti_stepDrive
 } ostStepDriver;
 
 
-// Smoothing continuation, the last resort of a substep that cannot be split further and whose
-// Newton loop stalled above split_tol (measured: a foot's friction and contact rows with a joint
-// limit active, where the generalized Jacobian of the Fischer-Burmeister function at its kink
-// sends the line search in circles). From the stalled loop's best iterate, Newton is run on the
-// complementarity smoothed by fb_eps = OST_FB_CONTINUATION, then with the smoothing cut by 100
-// per stage down to the step's own fb_eps, each stage from the last one's best iterate. The last
-// stage solves the step's own equations, so its merit is the step's and its result is exact where
-// it converges; its stats replace *st (iterates and Krylov counts summed). Returns Newton's status.
-#define OST_FB_CONTINUATION 1e-4
-OST_HD int osti_smoothingContinuation(ostWorld* w, const ostStepSettings* set,
-                                      const ostStepDriver* drv, ostNewtonStats* st) {
-  if (!(set->so.fb_eps < OST_FB_CONTINUATION)) {
-    return 0;
-  }
-  ostSolverOptions so = set->so;
-  ostNewtonStats s = *st;
-  int iterates = st->iterates, pcr = st->pcr, evals = st->geometry_evals, status = 0;
-  for (ostNum eps = OST_FB_CONTINUATION; !status; eps *= 0.01) {
-    so.fb_eps = eps > set->so.fb_eps ? eps : set->so.fb_eps;
-    status = osti_newton(w, &so, set->linesearch, drv->geometry, drv->ctx, NULL, NULL, 0, &s);
-    iterates += s.iterates;
-    pcr += s.pcr;
-    evals += s.geometry_evals;
-    if (so.fb_eps == set->so.fb_eps) {
-      break;
-    }
-  }
-  s.iterates = iterates;
-  s.pcr = pcr;
-  s.geometry_evals = evals;
-  s.first = st->first;
-  *st = s;
-  return status;
-}
-
-
 // one Ostrich step of size set->h (core/README.md section 1) in place on (qpos, qvel,
 // qacc_warm): for each substep, q- into qpos_prev (nq) and u- into the world, the caller's start,
 // the factor of Mt, Newton from u- + h qacc_warm (multipliers from the last result when *warm
@@ -574,9 +538,6 @@ OST_HD int osti_stepDriven(ostWorld* w, int nq, ostNum* qpos, ostNum* qpos_prev,
     ostNewtonStats st;
     *status = osti_newton(w, &set->so, set->linesearch, drv->geometry, drv->ctx, drv->merit_k,
                           drv->nrow_k, drv->nk, &st);
-    if (!*status && st.best_merit > set->split_tol && depth >= set->split_depth && !st.relaxed) {
-      *status = osti_smoothingContinuation(w, set, drv, &st);
-    }
     if (drv->newton) {
       *status = drv->newton(drv->ctx, &st, *status);
     }
