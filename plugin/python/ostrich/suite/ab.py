@@ -25,8 +25,8 @@ import warnings
 import numpy as np
 
 from ..errors import MujocoWarning, NotConvergedWarning
-from . import find_suite_dir, load, TASKS
-from .optimize import SetupError, check_writable, write_atomic
+from . import load, TASKS
+from .optimize import SetupError, check_outputs_and_data, parse_tasks, write_atomic
 
 CSV_FIELDS = ("task", "engine", "factor", "physics_timestep", "seed", "return", "wall_s",
               "engine_steps", "unconverged", "mujoco_warnings")
@@ -103,12 +103,7 @@ def main(argv=None, out=None, err=None):
   out, err = out or sys.stdout, err or sys.stderr
   args = parse(argv)
   try:
-    tasks = []
-    for name in args.task.split(","):
-      domain, _, task = name.strip().partition("-")
-      if (domain, task) not in TASKS:
-        raise SetupError(f"--task {name}: one of " + ", ".join(f"{d}-{t}" for d, t in TASKS))
-      tasks.append((domain, task))
+    tasks = parse_tasks(args.task, tuple(TASKS))
     try:
       factors = sorted({int(k) for k in args.factors.split(",") if k.strip()})
     except ValueError:
@@ -116,10 +111,8 @@ def main(argv=None, out=None, err=None):
     if not factors or factors[0] < 1 or args.seeds < 1 or (args.steps is not None
                                                             and args.steps < 1):
       raise SetupError("--factors, --seeds and --steps must be positive")
-    if args.csv:
-      check_writable(args.csv, "--csv")
-    find_suite_dir(args.xml_dir)
-  except (SetupError, FileNotFoundError) as e:
+    check_outputs_and_data(args)
+  except SetupError as e:
     print(f"ostrich.suite.ab: {e}", file=err)
     return 2
   rows = []

@@ -39,7 +39,6 @@ import csv
 import io
 import math
 import os
-import shutil
 import subprocess
 import sys
 import tempfile
@@ -49,9 +48,10 @@ import warnings
 import numpy as np
 
 from ..errors import NotConvergedWarning
-from . import find_suite_dir, load
-from .optimize import (Adam, Problem, SetupError, SUPPORTED, Unconverged, check_writable,
-                       write_atomic, _temporary_beside)
+from . import load
+from .optimize import (Adam, Problem, SetupError, SUPPORTED, Unconverged,
+                       check_outputs_and_data, parse_methods, parse_tasks, write_atomic,
+                       _temporary_beside)
 
 METHODS = ("adjoint", "fd", "mppi")
 ADAM_LR = 0.1          # Adam's step in action units (the suite's actions lie in [-1, 1])
@@ -324,18 +324,8 @@ def parse(argv):
 
 def setup(args):
   """Check everything that can be checked before work; return tasks, [(method, setting)]."""
-  tasks = []
-  for name in args.task.split(","):
-    domain, _, task = name.strip().partition("-")
-    if (domain, task) not in SUPPORTED:
-      raise SetupError(f"--task {name}: one of " + ", ".join(f"{d}-{t}" for d, t in SUPPORTED))
-    tasks.append((domain, task))
-  methods = [m.strip() for m in args.methods.split(",") if m.strip()]
-  if not methods:
-    raise SetupError("--methods: none given")
-  for m in methods:
-    if m not in METHODS:
-      raise SetupError(f"--methods: unknown method {m!r}; one of {', '.join(METHODS)}")
+  tasks = parse_tasks(args.task, SUPPORTED)
+  methods = parse_methods(args.methods, METHODS)
   iters, samples = _ints(args.iters, "--iters"), _ints(args.samples, "--samples")
   runs = [(m, s) for m in methods for s in (samples if m == "mppi" else iters)]
   if args.horizon is not None and args.horizon < 1:
@@ -347,16 +337,7 @@ def setup(args):
     raise SetupError("--physics-timestep must be positive")
   if not (math.isfinite(args.control_cost) and args.control_cost >= 0):
     raise SetupError("--control-cost must be finite and at least 0")
-  if args.csv:
-    check_writable(args.csv, "--csv")
-  if args.plot:
-    check_writable(args.plot, "--plot")
-    if shutil.which("gnuplot") is None:
-      raise SetupError("--plot needs gnuplot (Debian: gnuplot-nox)")
-  try:
-    find_suite_dir(args.xml_dir)
-  except FileNotFoundError as e:
-    raise SetupError(str(e)) from e
+  check_outputs_and_data(args)
   return tasks, runs
 
 

@@ -599,27 +599,34 @@ def parse(argv):
   return ap.parse_args(argv)
 
 
-def setup(args):
-  """Check everything that can be checked before work; return [(domain, task)], [methods]."""
+def parse_tasks(text, supported):
+  """[(domain, task)] of a comma-separated DOMAIN-TASK list, each one of `supported`."""
   tasks = []
-  for name in args.task.split(","):
+  for name in text.split(","):
     domain, _, task = name.strip().partition("-")
-    if (domain, task) not in SUPPORTED:
-      raise SetupError(f"--task {name}: one of " + ", ".join(f"{d}-{t}" for d, t in SUPPORTED))
+    if (domain, task) not in supported:
+      raise SetupError(f"--task {name}: one of " + ", ".join(f"{d}-{t}" for d, t in supported))
     tasks.append((domain, task))
-  methods = [m.strip() for m in args.methods.split(",") if m.strip()]
+  return tasks
+
+
+def parse_methods(text, known):
+  """The comma-separated methods of text, each one of `known`."""
+  methods = [m.strip() for m in text.split(",") if m.strip()]
   for m in methods:
-    if m not in METHODS:
-      raise SetupError(f"--methods: unknown method {m!r}; one of {', '.join(METHODS)}")
+    if m not in known:
+      raise SetupError(f"--methods: unknown method {m!r}; one of {', '.join(known)}")
   if not methods:
     raise SetupError("--methods: none given")
-  if not args.budget > 0:
-    raise SetupError("--budget must be positive")
-  if args.horizon is not None and args.horizon < 1:
-    raise SetupError("--horizon must be at least 1")
-  if args.csv:
+  return methods
+
+
+def check_outputs_and_data(args):
+  """Refuse, before any work, outputs that cannot be written (--csv, --plot and its gnuplot,
+  where the parser has them) and a missing suite folder (--xml-dir)."""
+  if getattr(args, "csv", None):
     check_writable(args.csv, "--csv")
-  if args.plot:
+  if getattr(args, "plot", None):
     check_writable(args.plot, "--plot")
     if shutil.which("gnuplot") is None:
       raise SetupError("--plot needs gnuplot (Debian: gnuplot-nox)")
@@ -627,6 +634,17 @@ def setup(args):
     find_suite_dir(args.xml_dir)
   except FileNotFoundError as e:
     raise SetupError(str(e)) from e
+
+
+def setup(args):
+  """Check everything that can be checked before work; return [(domain, task)], [methods]."""
+  tasks = parse_tasks(args.task, SUPPORTED)
+  methods = parse_methods(args.methods, METHODS)
+  if not args.budget > 0:
+    raise SetupError("--budget must be positive")
+  if args.horizon is not None and args.horizon < 1:
+    raise SetupError("--horizon must be at least 1")
+  check_outputs_and_data(args)
   return tasks, methods
 
 
