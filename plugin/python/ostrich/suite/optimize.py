@@ -136,18 +136,25 @@ def objective_of(env):
 
 
 def partials(f, qpos, qvel, ctrl, step=DERIV_STEP):
-  """df/dqpos, df/dqvel, df/dctrl of a closed-form f at rows (T x n): central differences,
-  2 (nq + nv + nu) vectorized evaluations of the formula."""
-  out = []
+  """df/dqpos, df/dqvel, df/dctrl of a closed-form f at rows (T x n): central differences, all
+  2 (nq + nv + nu) perturbed copies in one evaluation of the formula along a new leading axis
+  (f takes leading batch dimensions), so the Python cost does not grow with the sizes."""
   args = [np.array(qpos, dtype=float), np.array(qvel, dtype=float), np.array(ctrl, dtype=float)]
-  for i, x in enumerate(args):
-    d = np.zeros_like(x)
-    for j in range(x.shape[-1]):
-      hi, lo = [a.copy() for a in args], [a.copy() for a in args]
-      hi[i][..., j] += step
-      lo[i][..., j] -= step
-      d[..., j] = (f(*hi) - f(*lo)) / (2 * step)
-    out.append(d)
+  sizes = [a.shape[-1] for a in args]
+  n = sum(sizes)
+  stacked = [np.repeat(a[None], 2 * n, axis=0) for a in args]  # copy k: +step, n + k: -step
+  k = 0
+  for i, size in enumerate(sizes):
+    for j in range(size):
+      stacked[i][k, ..., j] += step
+      stacked[i][n + k, ..., j] -= step
+      k += 1
+  values = f(*stacked)
+  diff = (values[:n] - values[n:]) / (2 * step)  # n x T
+  out, k = [], 0
+  for a, size in zip(args, sizes):
+    out.append(np.moveaxis(diff[k:k + size], 0, -1).reshape(a.shape))
+    k += size
   return out
 
 
