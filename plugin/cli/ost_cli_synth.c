@@ -307,6 +307,86 @@ void* synth_alloc(size_t n, size_t sz, int* bad) {
 }
 
 
+int synth_stepGrid(const char* engine, double h, double dt, double horizon, int nknot,
+                   int* nsub, int* nsample, int* nstep, int** knot, double** alpha) {
+  *nsub = (int)lround(dt / h);
+  if (*nsub < 1 || fabs(*nsub * h - dt) > 1e-9) {
+    cli_error("synth: the %s step size %g s does not divide the loss interval %g s", engine, h,
+              dt);
+    return 1;
+  }
+  *nsample = (int)lround(horizon / dt);
+  *nstep = *nsub * *nsample;
+  int bad = 0;
+  *knot = (int*)synth_alloc((size_t)*nstep, sizeof(int), &bad);
+  *alpha = (double*)synth_alloc((size_t)*nstep, sizeof(double), &bad);
+  if (bad) {
+    cli_error("synth: out of memory");
+    return 1;
+  }
+  double spacing = horizon / (nknot - 1);
+  for (int k = 0; k < *nstep; k++) {
+    double t = ((double)k + 0.5) * h / spacing;
+    int j = (int)floor(t);
+    j = j < 0 ? 0 : (j > nknot - 2 ? nknot - 2 : j);
+    (*knot)[k] = j;
+    (*alpha)[k] = t - j;
+  }
+  return 0;
+}
+
+
+int synth_gradientTape(const mjModel* m, ostTape** tape) {
+  char err[CLI_MSG_SZ] = "";
+  if (ost_checkNative(m, err, sizeof(err)) != OST_OK) {
+    cli_error("synth: gradients need the native geometry: %s", err);
+    return 1;
+  }
+  if (!(*tape = ost_tapeCreate(m, 0))) {
+    cli_error("synth: cannot create a tape (out of memory)");
+    return 1;
+  }
+  return 0;
+}
+
+
+int synth_fdGradient(int nvar, const double* x, double* var, double lo, double hi, double eps,
+                     int central, double l0, double (*loss)(void* ctx, const double* x,
+                                                            int* fatal),
+                     void* ctx, double* g, long* fallback) {
+  mju_copy(var, x, nvar);
+  for (int c = 0; c < nvar; c++) {
+    double lp = NAN, lm = NAN;
+    int fatal = 0;
+    if (x[c] + eps <= hi) {
+      var[c] = x[c] + eps;
+      lp = loss(ctx, var, &fatal);
+    }
+    if ((central || !isfinite(lp)) && !fatal && x[c] - eps >= lo) {
+      var[c] = x[c] - eps;
+      lm = loss(ctx, var, &fatal);
+    }
+    var[c] = x[c];
+    if (fatal) {
+      return 1;
+    }
+    if (isfinite(lp) && isfinite(lm)) {
+      g[c] = (lp - lm) / (2 * eps);
+    } else if (isfinite(lp)) {
+      g[c] = (lp - l0) / eps;
+      *fallback += central;
+    } else if (isfinite(lm)) {
+      g[c] = (l0 - lm) / eps;
+      (*fallback)++;
+    } else {
+      g[c] = 0;
+      (*fallback)++;
+    }
+  }
+  return 0;
+}
+
+
 // Free an engine.
 static void synth_engineFree(synthEngine* e) {
   void* bufs[] = {e->knot, e->alpha, e->qs, e->vs, e->qs_fd, e->vs_fd, e->gqs, e->gus, e->gq,
@@ -355,30 +435,17 @@ static int synth_engineSetup(synthEngine* e, const char* name, const synthArgs* 
 
   // step size: Ostrich's from the model's <custom>, MuJoCo's opt.timestep
   if (e->ostrich) {
-    char err[CLI_MSG_SZ] = "";
-    if (cli_setupOstrich(m, e->d, 0, -1, -1, NULL, &e->h)) {
-      return 1;
-    }
-    if (ost_checkNative(m, err, sizeof(err)) != OST_OK) {
-      cli_error("synth: gradients need the native geometry: %s", err);
-      return 1;
-    }
-    if (!(e->tape = ost_tapeCreate(m, 0))) {
-      cli_error("synth: cannot create a tape (out of memory)");
+    if (cli_setupOstrich(m, e->d, 0, -1, -1, NULL, &e->h) || synth_gradientTape(m, &e->tape)) {
       return 1;
     }
   } else {
     e->h = m->opt.timestep;
   }
   m->opt.timestep = e->h;
-  e->nsub = (int)lround(SYNTH_DT / e->h);
-  if (e->nsub < 1 || fabs(e->nsub * e->h - SYNTH_DT) > 1e-9) {
-    cli_error("synth: the %s step size %g s does not divide the loss interval %g s", name, e->h,
-              SYNTH_DT);
+  if (synth_stepGrid(name, e->h, SYNTH_DT, SYNTH_HORIZON, SYNTH_NKNOT, &e->nsub, &e->nsample,
+                     &e->nstep, &e->knot, &e->alpha)) {
     return 1;
   }
-  e->nsample = (int)lround(SYNTH_HORIZON / SYNTH_DT);
-  e->nstep = e->nsub * e->nsample;
   e->nu = m->nu;
   e->nvar = m->nu * SYNTH_NKNOT;
   e->lo = -mjMAXVAL;
@@ -393,8 +460,6 @@ static int synth_engineSetup(synthEngine* e, const char* name, const synthArgs* 
 
   // the knot map: step k takes the spline at its midpoint
   int bad = 0, ns = e->nsample + 1, nv = m->nv;
-  e->knot = (int*)synth_alloc((size_t)e->nstep, sizeof(int), &bad);
-  e->alpha = (double*)synth_alloc((size_t)e->nstep, sizeof(double), &bad);
   e->qs = (mjtNum*)synth_alloc((size_t)(ns * m->nq), sizeof(mjtNum), &bad);
   e->vs = (mjtNum*)synth_alloc((size_t)(ns * nv), sizeof(mjtNum), &bad);
   e->qs_fd = (mjtNum*)synth_alloc((size_t)(ns * m->nq), sizeof(mjtNum), &bad);
@@ -408,14 +473,6 @@ static int synth_engineSetup(synthEngine* e, const char* name, const synthArgs* 
   if (bad) {
     cli_error("synth: out of memory");
     return 1;
-  }
-  double spacing = SYNTH_HORIZON / (SYNTH_NKNOT - 1);
-  for (int k = 0; k < e->nstep; k++) {
-    double t = ((double)k + 0.5) * e->h / spacing;
-    int j = (int)floor(t);
-    j = j < 0 ? 0 : (j > SYNTH_NKNOT - 2 ? SYNTH_NKNOT - 2 : j);
-    e->knot[k] = j;
-    e->alpha[k] = t - j;
   }
   return 0;
 }
@@ -663,6 +720,21 @@ static int synth_gradAdjoint(synthEngine* e, const synthTask* task, const double
 }
 
 
+typedef struct synthFdCtx_ {      // synth_fdGradient's context in the box scene
+  synthEngine*     e;
+  const synthTask* task;
+} synthFdCtx;
+
+// The loss of a rollout with knots x; *fatal on an error that ends the run.
+static double synth_fdLoss(void* ctx, const double* x, int* fatal) {
+  synthFdCtx* c = (synthFdCtx*)ctx;
+  int status;
+  double loss = synth_rolloutLoss(c->e, c->task, x, &status);
+  *fatal = status == SYNTH_FAILED;
+  return loss;
+}
+
+
 // MuJoCo: base rollout, then finite differences of the whole loss over every knot. Forward:
 // g = (L(kappa + eps e_c) - L) / eps; central: (L(+eps) - L(-eps)) / 2 eps. A perturbed rollout
 // that fails, or a step that would leave the control range, is replaced by the other side.
@@ -675,35 +747,10 @@ static int synth_gradFD(synthEngine* e, const synthTask* task, const double* kno
   double l0 = synth_stateLoss(e, task, e->qs, e->vs, NULL, NULL, ev) +
               synth_regLoss(e, knots, NULL);
   ev->loss = l0;
-  mju_copy(e->var, knots, e->nvar);
-  for (int c = 0; c < e->nvar; c++) {
-    double lp = NAN, lm = NAN, eps = e->eps;
-    if (knots[c] + eps <= e->hi) {
-      e->var[c] = knots[c] + eps;
-      lp = synth_rolloutLoss(e, task, e->var, &status);
-    }
-    if ((e->central || !isfinite(lp)) && status != SYNTH_FAILED && knots[c] - eps >= e->lo) {
-      e->var[c] = knots[c] - eps;
-      lm = synth_rolloutLoss(e, task, e->var, &status);
-    }
-    e->var[c] = knots[c];
-    if (status == SYNTH_FAILED) {
-      return SYNTH_FAILED;
-    }
-    if (isfinite(lp) && isfinite(lm)) {
-      gknot[c] = (lp - lm) / (2 * eps);
-    } else if (isfinite(lp)) {
-      gknot[c] = (lp - l0) / eps;
-      e->fd_fallback += e->central;
-    } else if (isfinite(lm)) {
-      gknot[c] = (l0 - lm) / eps;
-      e->fd_fallback++;
-    } else {
-      gknot[c] = 0;
-      e->fd_fallback++;
-    }
-  }
-  return SYNTH_OK;
+  synthFdCtx ctx = {e, task};
+  return synth_fdGradient(e->nvar, knots, e->var, e->lo, e->hi, e->eps, e->central, l0,
+                          synth_fdLoss, &ctx, gknot, &e->fd_fallback) ? SYNTH_FAILED
+                                                                      : SYNTH_OK;
 }
 
 

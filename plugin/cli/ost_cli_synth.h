@@ -11,6 +11,8 @@
 
 #include <mujoco/mujoco.h>
 
+#include "ostrich.h"
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -48,6 +50,28 @@ double synth_decay(int i, int n);
 // Adam direction over nvar variables from gradient g (t: 1-based count of gradients): the
 // moments mom, var2 are updated and dir = mhat / (sqrt(vhat) + eps).
 void synth_adam(int nvar, int t, const double* g, double* mom, double* var2, double* dir);
+
+// The steps of a rollout at step size h with the loss sampled every dt over horizon seconds, and
+// each step's place on a piecewise-linear spline of nknot knots spanning the horizon (taken at
+// the step's midpoint: u_k = (1 - alpha_k) kappa_knot_k + alpha_k kappa_knot_k+1). Sets *nsub
+// (steps per sample), *nsample, *nstep = nsub nsample and allocates *knot, *alpha (nstep each,
+// the caller frees them). Returns 0, else prints why (engine names the engine) and returns 1.
+int synth_stepGrid(const char* engine, double h, double dt, double horizon, int nknot,
+                   int* nsub, int* nsample, int* nstep, int** knot, double** alpha);
+
+// A gradient engine's tape for model m, after checking that the native geometry takes m.
+// Returns 0, else prints why and returns 1.
+int synth_gradientTape(const mjModel* m, ostTape** tape);
+
+// Finite-difference gradient g (nvar) of loss at x (nvar; l0 = its loss there), x_c + eps then,
+// when central or that side failed, x_c - eps; a side outside [lo, hi] or whose loss is not
+// finite is replaced by the other (each replacement counted in *fallback), a column with
+// neither gets 0. var (nvar) is scratch. loss(ctx, x, &fatal) sets fatal on an error that must
+// end the run; then this returns 1 at once, else 0.
+int synth_fdGradient(int nvar, const double* x, double* var, double lo, double hi, double eps,
+                     int central, double l0, double (*loss)(void* ctx, const double* x,
+                                                            int* fatal),
+                     void* ctx, double* g, long* fallback);
 
 // Path of the trajectory CSV next to FILE.csv: FILE_traj.csv (written into buf).
 void synth_trajPath(const char* csv, char* buf, size_t sz);

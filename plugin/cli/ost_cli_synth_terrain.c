@@ -296,26 +296,17 @@ int ter_engineSetup(terEngine* e, const char* name, const char* path, const synt
       return 1;
     }
     e->h = opt.timestep;
-    if (ost_checkNative(m, err, sizeof(err)) != OST_OK) {
-      cli_error("synth: gradients need the native geometry: %s", err);
-      return 1;
-    }
-    if (!(e->tape = ost_tapeCreate(m, 0))) {
-      cli_error("synth: cannot create a tape (out of memory)");
+    if (synth_gradientTape(m, &e->tape)) {
       return 1;
     }
   } else {
     e->h = m->opt.timestep;
   }
   m->opt.timestep = e->h;
-  e->nsub = (int)lround(TER_DT / e->h);
-  if (e->nsub < 1 || fabs(e->nsub * e->h - TER_DT) > 1e-9) {
-    cli_error("synth: the %s step size %g s does not divide the loss interval %g s", name, e->h,
-              TER_DT);
+  if (synth_stepGrid(name, e->h, TER_DT, TER_HORIZON, TER_NKNOT, &e->nsub, &e->nsample,
+                     &e->nstep, &e->knot, &e->alpha)) {
     return 1;
   }
-  e->nsample = (int)lround(TER_HORIZON / TER_DT);
-  e->nstep = e->nsub * e->nsample;
   e->lo = -mjMAXVAL;
   e->hi = mjMAXVAL;
   if (m->actuator_ctrllimited[e->act[0]]) {
@@ -328,8 +319,6 @@ int ter_engineSetup(terEngine* e, const char* name, const char* path, const synt
 
   // the knot map: step k takes the spline at its midpoint (as the box scene)
   int bad = 0, ns = e->nsample + 1, nv = m->nv;
-  e->knot = (int*)synth_alloc((size_t)e->nstep, sizeof(int), &bad);
-  e->alpha = (double*)synth_alloc((size_t)e->nstep, sizeof(double), &bad);
   e->qs = (mjtNum*)synth_alloc((size_t)(ns * m->nq), sizeof(mjtNum), &bad);
   e->vs = (mjtNum*)synth_alloc((size_t)(ns * nv), sizeof(mjtNum), &bad);
   e->qs_fd = (mjtNum*)synth_alloc((size_t)(ns * m->nq), sizeof(mjtNum), &bad);
@@ -344,14 +333,6 @@ int ter_engineSetup(terEngine* e, const char* name, const char* path, const synt
   if (bad) {
     cli_error("synth: out of memory");
     return 1;
-  }
-  double spacing = TER_HORIZON / (TER_NKNOT - 1);
-  for (int k = 0; k < e->nstep; k++) {
-    double t = ((double)k + 0.5) * e->h / spacing;
-    int j = (int)floor(t);
-    j = j < 0 ? 0 : (j > TER_NKNOT - 2 ? TER_NKNOT - 2 : j);
-    e->knot[k] = j;
-    e->alpha[k] = t - j;
   }
   return 0;
 }
@@ -542,6 +523,15 @@ int ter_gradAdjoint(terEngine* e, const double* knots, terEval* ev, double* gkno
 }
 
 
+// The loss of a rollout with knots x; *fatal on an error that ends the run.
+static double ter_fdLoss(void* ctx, const double* x, int* fatal) {
+  int status;
+  double loss = ter_rolloutLoss((terEngine*)ctx, x, &status);
+  *fatal = status == TER_FAILED;
+  return loss;
+}
+
+
 // MuJoCo: base rollout, then finite differences of the whole loss over every knot (forward, or
 // central with --fd central); a perturbed rollout that fails, or a step that would leave the
 // control range, is replaced by the other side (counted in e->fd_fallback).
@@ -552,33 +542,6 @@ int ter_gradFD(terEngine* e, const double* knots, terEval* ev, double* gknot) {
   }
   double l0 = ter_stateLoss(e, e->qs, NULL, &ev->rmse) + ter_regLoss(knots, NULL);
   ev->loss = l0;
-  mju_copy(e->var, knots, TER_NVAR);
-  for (int c = 0; c < TER_NVAR; c++) {
-    double lp = NAN, lm = NAN, eps = e->eps;
-    if (knots[c] + eps <= e->hi) {
-      e->var[c] = knots[c] + eps;
-      lp = ter_rolloutLoss(e, e->var, &status);
-    }
-    if ((e->central || !isfinite(lp)) && status != TER_FAILED && knots[c] - eps >= e->lo) {
-      e->var[c] = knots[c] - eps;
-      lm = ter_rolloutLoss(e, e->var, &status);
-    }
-    e->var[c] = knots[c];
-    if (status == TER_FAILED) {
-      return TER_FAILED;
-    }
-    if (isfinite(lp) && isfinite(lm)) {
-      gknot[c] = (lp - lm) / (2 * eps);
-    } else if (isfinite(lp)) {
-      gknot[c] = (lp - l0) / eps;
-      e->fd_fallback += e->central;
-    } else if (isfinite(lm)) {
-      gknot[c] = (l0 - lm) / eps;
-      e->fd_fallback++;
-    } else {
-      gknot[c] = 0;
-      e->fd_fallback++;
-    }
-  }
-  return TER_OK;
+  return synth_fdGradient(TER_NVAR, knots, e->var, e->lo, e->hi, e->eps, e->central, l0,
+                          ter_fdLoss, e, gknot, &e->fd_fallback) ? TER_FAILED : TER_OK;
 }
