@@ -38,10 +38,7 @@ import collections
 import csv
 import io
 import math
-import os
-import subprocess
 import sys
-import tempfile
 import time
 import warnings
 
@@ -50,8 +47,8 @@ import numpy as np
 from ..errors import NotConvergedWarning
 from . import load
 from .optimize import (Adam, Problem, SetupError, SUPPORTED, Unconverged,
-                       check_outputs_and_data, parse_methods, parse_tasks, write_atomic,
-                       _temporary_beside)
+                       check_outputs_and_data, draw_png, parse_methods, parse_tasks,
+                       write_atomic)
 
 METHODS = ("adjoint", "fd", "mppi")
 ADAM_LR = 0.1          # Adam's step in action units (the suite's actions lie in [-1, 1])
@@ -244,39 +241,23 @@ def read_csv(path):
 
 def plot(path, episodes, title=""):
   """Return against planning time, one line per method (its K or N in order), one panel per
-  task, with gnuplot into a temporary file beside path, renamed onto path."""
+  task (optimize.draw_png)."""
   tasks = list(dict.fromkeys(e.task for e in episodes))
-  data = tempfile.NamedTemporaryFile("w", suffix=".csv", delete=False)
-  tmp = _temporary_beside(path)
   labels = {"adjoint": "Adam, adjoint (Ostrich)", "fd": "Adam, finite differences (MuJoCo)",
             "mppi": "MPPI (Ostrich batch)"}
-  try:
-    with data:
-      data.write(csv_text(sorted(episodes, key=lambda e: (e.task, e.method, e.plan_s))))
-    proc = None
-    for terminal in ("pngcairo size {w},480 noenhanced", "png size {w},480 noenhanced"):
-      script = [f"set terminal {terminal.format(w=max(640, 560 * len(tasks)))}",
-                f"set output '{tmp}'", "set datafile separator ','", "set key bottom right",
-                "set grid", "set logscale x", "set xlabel 'planning wall time per episode, s'",
-                "set ylabel 'episode return'", f"set multiplot layout 1,{len(tasks)} title "
-                f"'{title}'"]
-      for task in tasks:
-        lines = [f"'{data.name}' using (strcol(1) eq '{task}' && strcol(2) eq '{m}' ? $5 : "
-                 f"NaN):4 with linespoints lw 2 pt 7 title '{labels[m]}'"
-                 for m in METHODS if any(e.task == task and e.method == m for e in episodes)]
-        script += [f"set title '{task}'", "plot " + ", ".join(lines)]
-      script.append("unset multiplot")
-      proc = subprocess.run(["gnuplot"], input="\n".join(script) + "\n", text=True,
-                            capture_output=True)
-      if proc.returncode == 0 and os.path.getsize(tmp) > 0:
-        break
-    else:
-      raise OSError(f"gnuplot could not draw {path}: {proc.stderr.strip()[-300:]}")
-    os.replace(tmp, path)
-  finally:
-    os.unlink(data.name)
-    if os.path.exists(tmp):
-      os.unlink(tmp)
+
+  def script(data):
+    out = ["set datafile separator ','", "set key bottom right", "set grid", "set logscale x",
+           "set xlabel 'planning wall time per episode, s'", "set ylabel 'episode return'",
+           f"set multiplot layout 1,{len(tasks)} title '{title}'"]
+    for task in tasks:
+      lines = [f"'{data}' using (strcol(1) eq '{task}' && strcol(2) eq '{m}' ? $5 : "
+               f"NaN):4 with linespoints lw 2 pt 7 title '{labels[m]}'"
+               for m in METHODS if any(e.task == task and e.method == m for e in episodes)]
+      out += [f"set title '{task}'", "plot " + ", ".join(lines)]
+    return out + ["unset multiplot"]
+  draw_png(path, csv_text(sorted(episodes, key=lambda e: (e.task, e.method, e.plan_s))), script,
+           max(640, 560 * len(tasks)))
 
 
 # ---- command line

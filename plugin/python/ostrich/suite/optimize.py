@@ -515,45 +515,51 @@ def csv_text(results):
   return out.getvalue()
 
 
-def plot(path, results, title=""):
-  """Draw return against wall time, one line per method, one panel per task, with gnuplot
-  (pngcairo, else png) into a temporary file beside path, renamed onto path."""
-  tasks = list(dict.fromkeys(r.task for r in results))
+def draw_png(path, data_text, script, width):
+  """Draw a PNG with gnuplot: data_text goes to a temporary CSV, script(data_name) gives the
+  commands after the terminal and output lines; the PNG is drawn into a temporary file beside
+  path (pngcairo, else png, width x 480) and renamed onto path. OSError if gnuplot fails."""
   data = tempfile.NamedTemporaryFile("w", suffix=".csv", delete=False)
   tmp = _temporary_beside(path)
   try:
     with data:
-      data.write(csv_text(results))
-    ok = False
-    for terminal in ("pngcairo size {w},480 noenhanced", "png size {w},480 noenhanced"):
-      script = [f"set terminal {terminal.format(w=max(640, 560 * len(tasks)))}",
-                f"set output '{tmp}'", "set datafile separator ','", "set key bottom right",
-                "set grid", "set xlabel 'wall time, s (each method its own budget)'",
-                "set ylabel 'return (Ostrich Environment)'",
-                f"set multiplot layout 1,{len(tasks)} title '{title}'"]
-      for task in tasks:
-        lines = []
-        for r in results:
-          if r.task == task and r.points:
-            label = {"adjoint": "adjoint (Ostrich)", "fd": "finite differences (MuJoCo)",
-                     "cem": "CEM (Ostrich)"}.get(r.method, r.method)
-            lines.append(f"'{data.name}' using (strcol(1) eq '{task}' && strcol(2) eq "
-                         f"'{r.method}' ? $5 : NaN):7 with steps lw 2 title '{label}'")
-        script.append(f"set title '{task}'")
-        script.append("plot " + ", ".join(lines) if lines else "plot NaN notitle")
-      script.append("unset multiplot")
-      proc = subprocess.run(["gnuplot"], input="\n".join(script) + "\n", text=True,
+      data.write(data_text)
+    proc = None
+    for terminal in (f"pngcairo size {width},480 noenhanced", f"png size {width},480 noenhanced"):
+      lines = [f"set terminal {terminal}", f"set output '{tmp}'"] + script(data.name)
+      proc = subprocess.run(["gnuplot"], input="\n".join(lines) + "\n", text=True,
                             capture_output=True)
       if proc.returncode == 0 and os.path.getsize(tmp) > 0:
-        ok = True
-        break
-    if not ok:
-      raise OSError(f"gnuplot could not draw {path}: {proc.stderr.strip()[-300:]}")
-    os.replace(tmp, path)
+        os.replace(tmp, path)
+        return
+    raise OSError(f"gnuplot could not draw {path}: {proc.stderr.strip()[-300:]}")
   finally:
     os.unlink(data.name)
     if os.path.exists(tmp):
       os.unlink(tmp)
+
+
+def plot(path, results, title=""):
+  """Draw return against wall time, one line per method, one panel per task (draw_png)."""
+  tasks = list(dict.fromkeys(r.task for r in results))
+
+  def script(data):
+    out = ["set datafile separator ','", "set key bottom right", "set grid",
+           "set xlabel 'wall time, s (each method its own budget)'",
+           "set ylabel 'return (Ostrich Environment)'",
+           f"set multiplot layout 1,{len(tasks)} title '{title}'"]
+    for task in tasks:
+      lines = []
+      for r in results:
+        if r.task == task and r.points:
+          label = {"adjoint": "adjoint (Ostrich)", "fd": "finite differences (MuJoCo)",
+                   "cem": "CEM (Ostrich)"}.get(r.method, r.method)
+          lines.append(f"'{data}' using (strcol(1) eq '{task}' && strcol(2) eq "
+                       f"'{r.method}' ? $5 : NaN):7 with steps lw 2 title '{label}'")
+      out.append(f"set title '{task}'")
+      out.append("plot " + ", ".join(lines) if lines else "plot NaN notitle")
+    return out + ["unset multiplot"]
+  draw_png(path, csv_text(results), script, max(640, 560 * len(tasks)))
 
 
 def table(results):
