@@ -131,6 +131,8 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNu
   X(int, anchor_best, OST_SOLVER_ROWS(nrow_max), 1) /* their first pattern dof (island key) */  \
   X(unsigned char, used,          nrow_max, 1)   /* matching scratch                       */
 
+struct ostGeoWork_;
+
 typedef struct ostWorld_ {        // one world: sizes and pointers into one allocation
   int    nv;                      // degrees of freedom
   int    nrow;                    // rows of the current iterate
@@ -147,6 +149,7 @@ typedef struct ostWorld_ {        // one world: sizes and pointers into one allo
   ostNum depen_speed;             // bounded removal speed of violations at q- (0: at once)
   const int* dof_parent;          // parent dof of each dof (-1: root), set with M: M is then
                                   // factored as a tree (ost_util_tree.h); NULL: dense Cholesky
+  struct ostGeoWork_* geo;        // geometric Newton arrays (ost_geometric.h); NULL: none
 #define X(type, name, r, c) type* name;
   OST_WORLD_ARRAYS(X)
 #undef X
@@ -203,6 +206,7 @@ OST_HD void ostu_worldInitFor(ostWorld* w, void* buf, int nv, int ncol, int nrow
   w->lookahead = 0;
   w->depen_speed = 0;
   w->dof_parent = NULL;
+  w->geo = NULL;
 #define X(type, name, r, c)                                         \
   w->name = (size_t)(r) * (size_t)(c) != 0 ? (type*)p : NULL;       \
   p += (((size_t)(r) * (c) * sizeof(type) + 63) / 64) * 64;
@@ -1161,22 +1165,21 @@ OST_HD int osti_schurSolveSet(ostWorld* w, const ostRowSet* set, ostNum* x, cons
 }
 
 
-// the Newton direction at the evaluated iterate: each island's Schur system by PCR (by GMRES
-// when sliding friction makes it non-symmetric), islands marked done (isl_done) get none; then
-// du by back-substitution, zero on done islands; dlambda is rotated back from slip frames to
-// contact frames (J too). The iterate becomes the base of the step: its u, rows and multipliers
-// are kept for osti_trial and for matching multipliers onto the rows of the next iterate.
-// Without islands (w->nisland == 0) the whole world is one system. Returns the Krylov
-// iterations.
-OST_HD int osti_newtonDirection(ostWorld* w, const ostSolverOptions* opt) {
+// the linear part of a Newton direction: the Schur systems of the evaluated iterate with the
+// dynamics residual r (Mt^-1 r_dyn, nv) and row residuals rho (nrow; NULL: zero) on the right:
+// each island's system by PCR (by GMRES when sliding friction makes it non-symmetric), islands
+// marked done (isl_done) get none; then du by back-substitution, zero on done islands. Linear
+// in (r, rho); reads the iterate's rows, J, c and W, writes only dlam, du and scratch.
+// Returns the Krylov iterations.
+OST_HD int osti_directionSolve(ostWorld* w, const ostSolverOptions* opt, const ostNum* r,
+                              const ostNum* rho, ostNum* dlam, ostNum* du) {
   int nv = w->nv, nrow = w->nrow, it = 0;
   ostNum h = w->h;
   ostNum* b = w->pcr;
-  ostNum* dlam = w->dlambda;
 
   // right-hand side (J Mt^-1 r_dyn - rho) / h                                        (eq. 11)
   for (int i = 0; i < nrow; i++) {
-    b[i] = (osti_rowDot(w, i, w->Minv_rdyn) - w->rho[i]) / h;
+    b[i] = (osti_rowDot(w, i, r) - (rho ? rho[i] : 0)) / h;
   }
   if (w->nisland == 0) {
     ostRowSet set = osti_wholeSet(w);
@@ -1201,7 +1204,19 @@ OST_HD int osti_newtonDirection(ostWorld* w, const ostSolverOptions* opt) {
   osti_mulJT(w, t, dlam);
   osti_massSolve(w, t);
   for (int j = 0; j < nv; j++) {
-    w->dqvel[j] = w->nisland && w->isl_done[w->dof_island[j]] ? 0 : h * t[j] - w->Minv_rdyn[j];
+    du[j] = w->nisland && w->isl_done[w->dof_island[j]] ? 0 : h * t[j] - r[j];
+  }
+  return it;
+}
+
+
+// after the direction (dqvel, dlambda): dlambda and J are rotated back from slip frames to
+// contact frames. The iterate becomes the base of the step: its u, rows and multipliers are
+// kept for osti_trial and for matching multipliers onto the rows of the next iterate.
+OST_HD void osti_directionFinish(ostWorld* w) {
+  int nv = w->nv, nrow = w->nrow;
+  ostNum* dlam = w->dlambda;
+  for (int j = 0; j < nv; j++) {
     w->qvel_base[j] = w->qvel[j];
   }
 
@@ -1225,6 +1240,15 @@ OST_HD int osti_newtonDirection(ostWorld* w, const ostSolverOptions* opt) {
   }
   w->nrow_prev = nrow;
   w->prev_jac = 1;
+}
+
+
+// the Newton direction at the evaluated iterate: each island's Schur system by PCR (by GMRES
+// when sliding friction makes it non-symmetric), islands marked done (isl_done) get none; then
+// du by back-substitution, zero on done islands (osti_directionSolve, then osti_directionFinish)
+OST_HD int osti_newtonDirection(ostWorld* w, const ostSolverOptions* opt) {
+  int it = osti_directionSolve(w, opt, w->Minv_rdyn, w->rho, w->dlambda, w->dqvel);
+  osti_directionFinish(w);
   return it;
 }
 

@@ -13,6 +13,7 @@
 #include <math.h>
 
 #include "ost_adjoint.h"
+#include "ost_geometric.h"
 #include "ost_hd.h"
 #include "ost_island.h"
 #include "ost_model.h"
@@ -163,6 +164,30 @@ OST_HD int osti_trialIterate(ostWorld* w, const ostSolverOptions* so, ostNum alp
 }
 
 
+// the Newton direction at the evaluated iterate (osti_newtonDirection), with the geometric term
+// of ost_geometric.h where the world has its arrays and the loop engaged it (host only)
+OST_HD int osti_newtonDirectionGeom(ostWorld* w, const ostSolverOptions* so, ostGeometryFn geom,
+                                    void* ctx, ostNewtonStats* st) {
+#if OST_GEO_HOST
+  if (w->geo && w->geo->engaged) {
+    // its inner solves are nested in GMRES: OST_GEO_PCR times the Krylov budget, so that
+    // their error does not set the floor of the outer Newton loop
+    ostSolverOptions inner = *so;
+    inner.pcr_iter *= OST_GEO_PCR;
+    int evals = w->geo->evals;
+    int it = osti_directionSolve(w, &inner, w->Minv_rdyn, w->rho, w->dlambda, w->dqvel);
+    it += osti_geoDirection(w, &inner, geom, ctx);
+    st->geometry_evals += w->geo->evals - evals;
+    osti_directionFinish(w);
+    return it;
+  }
+#endif
+  int it = osti_directionSolve(w, so, w->Minv_rdyn, w->rho, w->dlambda, w->dqvel);
+  osti_directionFinish(w);
+  return it;
+}
+
+
 // the line search of islands: every island of the base iterate tries its own step, halved until
 // its merit falls (Armijo, as osti_newton's) at most `linesearch` times, all islands in one
 // geometry evaluation per trial; an island whose merit never fell takes its lowest trial. Done
@@ -180,7 +205,7 @@ OST_HD int osti_islandLineSearch(ostWorld* w, const ostSolverOptions* so, int li
     OST_ISL_ALOW(w, I) = 1;
     w->isl_acc[I] = w->isl_done[I];
   }
-  st->pcr += osti_newtonDirection(w, so);
+  st->pcr += osti_newtonDirectionGeom(w, so, geom, ctx, st);
   for (int ls = 0; ls <= linesearch; ls++) {
     osti_trialIslands(w);
     if ((status = osti_evaluateTrial(w, so, geom, ctx, merit, st))) {
@@ -277,7 +302,7 @@ OST_HD int osti_newton(ostWorld* w, const ostSolverOptions* so, int linesearch, 
       status = osti_islandLineSearch(w, so, linesearch, geom, ctx, &merit, st);
     } else {
       ostNum base = merit, alpha = 1, lowest = HUGE_VAL, alpha_lowest = 1, alpha_last = 1;
-      st->pcr += osti_newtonDirection(w, so);
+      st->pcr += osti_newtonDirectionGeom(w, so, geom, ctx, st);
       for (int ls = 0; ls <= linesearch; ls++, alpha *= 0.5) {
         if ((status = osti_trialIterate(w, so, alpha, geom, ctx, &merit, st))) {
           return status;
@@ -302,6 +327,11 @@ OST_HD int osti_newton(ostWorld* w, const ostSolverOptions* so, int linesearch, 
       st->nonfinite = 1;
       break;
     }
+#if OST_GEO_HOST
+    if (w->geo) {
+      osti_geoTrack(w->geo, k, merit);
+    }
+#endif
     if (k < nk) {
       if (merit_k) merit_k[k] = merit;
       if (nrow_k) nrow_k[k] = w->nrow;

@@ -33,6 +33,7 @@ static void freeContext(ostContext* c) {
   free(c->act_input);
   free(c->jac);
   free(c->world_buf);
+  free(c->geo_buf);
   free(c->native_block);
   free(c->corepairs_block);
   free(c->hfield_data);
@@ -129,9 +130,18 @@ int ost_growCapacity(ostContext* c, int ncon, int njmax) {
     return OST_ERR_MEMORY;
   }
   memset(buf, 0, sz);
+  size_t gsz = ostu_geoSize(m->nv, ncol, nrow_max);
+  void* gbuf = aligned_alloc(64, (gsz + 63) / 64 * 64);
+  if (!gbuf) {
+    free(buf);
+    return OST_ERR_MEMORY;
+  }
   free(c->world_buf);
+  free(c->geo_buf);
   c->world_buf = buf;
+  c->geo_buf = gbuf;
   ostu_worldInit(&c->world, c->world_buf, m->nv, ncol, nrow_max, 0);
+  ostu_geoInit(&c->geo, c->geo_buf, m->nv, ncol, nrow_max, 0);
   c->ncon_cap = ncon;
   c->njmax_cap = njmax;
   c->warm_valid = 0;

@@ -9,6 +9,7 @@
 #include <mujoco/mujoco.h>
 
 #include "ost_geom.h"
+#include "ost_geometric.h"
 #include "ost_model.h"
 #include "ost_solver.h"
 #include "ostrich.h"
@@ -86,6 +87,8 @@ typedef struct ostContext_ {
   mjData*        dg;              // mujoco provider: private mjData of mo for the iterates,
                                   // sized to ncon_cap (NULL until needed)
   void*          world_buf;       // the core world's single allocation
+  void*          geo_buf;         // its geometric Newton arrays' allocation
+  ostGeoWork     geo;             // those arrays (core/ost_geometric.h)
   ostModel       native;          // native provider: packed model (geometry option 1)
   void*          native_block;    // its single allocation
   int            native_dirty;    // 1 if the native packing must be rebuilt

@@ -24,7 +24,8 @@
   X(regularization, 0, 1e-6)               \
   X(friction_creep, 0, 0)                  \
   X(geometry,      1, 0)                    \
-  X(depenetration_speed, 0, 1)
+  X(depenetration_speed, 0, 1)          \
+  X(geometric_newton, 1, 1)
 
 void ost_defaultOptions(ostOptions* opt) {
 #define X(name, isint, def) opt->name = def;
@@ -57,6 +58,8 @@ static int validate(const ostOptions* o, char* err, int err_sz) {
     bad = "friction_creep must be in [0, 1] s/kg";
   } else if (!(o->depenetration_speed >= 0)) {
     bad = "depenetration_speed must be >= 0 m/s (0: remove violations at once)";
+  } else if (o->geometric_newton < 0 || o->geometric_newton > 2) {
+    bad = "geometric_newton must be 0 (off), 1 (on slow iterates) or 2 (every iterate)";
   }
   if (bad) {
     if (err) snprintf(err, err_sz, "ostrich option: %s", bad);

@@ -608,6 +608,14 @@ static int commitCallback(void* ctx, ostNum h, const ostNewtonStats* ns, int bit
 }
 
 
+// the geometric Newton arrays for this context's steps, or NULL: the option is on and the
+// geometry is MuJoCo's (the native provider keeps the fixed-J model of the batches, CPU and GPU,
+// so that ost_step with it stays bitwise equal to them)
+static ostGeoWork* geometricNewton(ostContext* c) {
+  return c->opt.geometric_newton && c->opt.geometry != OST_GEOMETRY_NATIVE ? &c->geo : NULL;
+}
+
+
 static int failBits(int status) {
   return status == OST_ERR_OVERFLOW ? OST_STEP_OVERFLOW : OST_STEP_NAN;
 }
@@ -687,6 +695,7 @@ static int advanceGrowing(ostContext* c, const mjModel* m, mjData* d, mjtNum h) 
     }
     c->world.lookahead = c->opt.margin;
     c->world.depen_speed = c->opt.depenetration_speed;
+    c->world.geo = geometricNewton(c);
   }
 }
 
@@ -714,6 +723,8 @@ static int step2(ostContext* c, const mjModel* m, mjData* d) {
   ostWorld* w = &c->world;
   w->lookahead = c->opt.margin;
   w->depen_speed = c->opt.depenetration_speed;
+  c->geo.mode = c->opt.geometric_newton;
+  w->geo = geometricNewton(c);
   memset(&c->stats, 0, sizeof(c->stats));
   c->rec_n = 0;
   c->rec_bytes = 0;

@@ -119,6 +119,12 @@ typedef struct ostOptions_ {
   double depenetration_speed;     // largest speed (m/s, rad/s for angular limits and
                                   // equalities) at which a violation present at the start of
                                   // a step is removed; 0 = at once                    (1)
+  int    geometric_newton;        // the Newton model's geometric term (how J' lambda turns
+                                  // with q: loaded tendons, strings, cloth): 0 off, 1 from
+                                  // the first iterate whose merit falls by less than half,
+                                  // 2 every iterate. Steps with the mujoco geometry provider
+                                  // only: the native provider and the batches keep the
+                                  // fixed-J model, bitwise as on the GPU             (1)
 } ostOptions;
 
 typedef enum ostGeometry_ {       // geometry providers (option `geometry`)
