@@ -169,7 +169,7 @@ OST_HD int osti_trialIterate(ostWorld* w, const ostSolverOptions* so, ostNum alp
 OST_HD int osti_newtonDirectionGeom(ostWorld* w, const ostSolverOptions* so, ostGeometryFn geom,
                                     void* ctx, ostNewtonStats* st) {
 #if OST_GEO_HOST
-  if (w->geo && w->geo->engaged) {
+  if (w->geo && w->geo->engaged && osti_geoLoaded(w)) {
     // its inner solves are nested in GMRES: OST_GEO_PCR times the Krylov budget, so that
     // their error does not set the floor of the outer Newton loop
     ostSolverOptions inner = *so;
