@@ -235,6 +235,10 @@ OST_HD int osti_geoDirection(ostWorld* w, const ostSolverOptions* so,
   e[0] = beta;
   for (int j = 0; j < nv; j++) gw->V[j] = w->dqvel[j] / beta;
   ostNum* Tv = gw->vec + 2 * nv;
+  // inexact Newton (Eisenstat and Walker, SIAM J. Sci. Comput. 17, 1996): the relative GMRES
+  // residual need only fall with the merit (m/s), which keeps the outer convergence superlinear
+  ostNum eta = gw->merit_last < 1e-2 ? gw->merit_last : 1e-2;
+  eta = eta > so->pcr_tol ? eta : so->pcr_tol;
   while (k < m && !status) {
     ostNum* v = gw->V + (size_t)k * nv;
     ostNum* z = gw->V + (size_t)(k + 1) * nv;
@@ -262,7 +266,7 @@ OST_HD int osti_geoDirection(ostWorld* w, const ostSolverOptions* so,
     e[k + 1] = -H[k * ld + m + 2] * e[k];
     e[k] = H[k * ld + m + 1] * e[k];
     k++;
-    if (!(nz > 0) || !(r > 0) || fabs(e[k]) <= so->pcr_tol * beta) break;
+    if (!(nz > 0) || !(r > 0) || fabs(e[k]) <= eta * beta) break;
     for (int j = 0; j < nv; j++) z[j] /= nz;
   }
   if (!status && k > 0) {
