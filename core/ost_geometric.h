@@ -202,9 +202,10 @@ OST_HD int osti_geoLoaded(const ostWorld* w) {
 
 
 // replace the evaluated iterate's fixed-J direction (dqvel, dlambda; slip frames, before
-// osti_directionFinish) by the direction with the geometric term. The geometry is evaluated
-// again at u and the world's rows and Jacobians are restored as found. Returns the inner Krylov
-// iterations; on a geometry failure the fixed-J direction is kept.
+// osti_directionFinish) by the direction with the geometric term; the caller checked that an
+// equality row is loaded (osti_geoLoaded). The geometry is evaluated again at u and the world's
+// rows and Jacobians are restored as found. Returns the inner Krylov iterations; on a geometry
+// failure the fixed-J direction is kept.
 OST_HD int osti_geoDirection(ostWorld* w, const ostSolverOptions* so,
                              int (*geom)(void*, const ostNum*), void* ctx) {
   ostGeoWork* gw = w->geo;
@@ -212,7 +213,7 @@ OST_HD int osti_geoDirection(ostWorld* w, const ostSolverOptions* so,
   ostNum beta = 0;
   for (int j = 0; j < nv; j++) beta += w->dqvel[j] * w->dqvel[j];
   beta = sqrt(beta);
-  if (!(beta > 0) || !osti_geoLoaded(w)) {
+  if (!(beta > 0)) {
     return 0;
   }
   osti_geoRows(w, gw->rows_s, gw->J_s, gw->nnz_s, gw->ind_s, &ns, 0);
