@@ -30,6 +30,7 @@ static void freeContext(ostContext* c) {
   free(c->qpos_prev);
   free(c->state_end);
   free(c->state_start);
+  free(c->published);
   free(c->act_input);
   free(c->jac);
   free(c->world_buf);
@@ -193,9 +194,10 @@ static ostContext* newContext(const mjModel* m, const mjData* d) {
   c->state_end = (mjtNum*)calloc(1 + m->nq + 2 * m->nv + m->na, sizeof(mjtNum));
   c->state_start = (mjtNum*)calloc(1 + m->nq + 2 * m->nv + m->na, sizeof(mjtNum));
   c->act_input = (mjtNum*)calloc(m->nu + 2 * m->na + 1, sizeof(mjtNum));
+  c->published = (mjtNum*)calloc(ost_publishedSize(m), sizeof(mjtNum));
   c->act_next = c->act_input + m->nu;
   if (!c->servo || !c->ten_implicit || !c->ten_dt || !c->qpos_prev || !c->state_end || !c->state_start || !c->jac
-      || !c->act_input || ost_growCapacity(c, m->nconmax, m->njmax)) {
+      || !c->act_input || !c->published || ost_growCapacity(c, m->nconmax, m->njmax)) {
     freeContext(c);
     return NULL;
   }

@@ -76,6 +76,8 @@ typedef struct ostContext_ {
   mjtNum*        act_next;        // the substep's act+ (na) after act_input's nu, then
                                   // room for act- while mj_fwdActuation reads act+  (na)
   int            warm_valid;      // 1 if state_end and the world's warm rows are valid
+  mjtNum*        published;       // what the last publication left in d (ost_published.c)
+  int            published_valid; // 1 if published holds the last step's publication
   mjtNum*        jac;             // contact Jacobian scratch                     (12 x nv)
   int            ncon_cap;        // contacts the iterates have room for: m->nconmax, doubled
                                   // whenever the look-ahead overflows it (ost_growCapacity)
@@ -124,6 +126,13 @@ typedef struct ostContext_ {
   size_t         adj_scratch_cap; // its capacity in doubles
   struct ostContext_* next;       // registry list
 } ostContext;
+
+// the stages the last step published, reused by ost_step1 (ost_published.c): the snapshot's
+// length, saving it after a publication, and whether d and the model are still exactly as it
+// left them (1), not (0), or the model copy failed (-1)
+size_t ost_publishedSize(const mjModel* m);
+void ost_publishedSave(ostContext* c, const mjModel* m, const mjData* d);
+int ost_publishedCurrent(ostContext* c, const mjModel* m, const mjData* d);
 
 // find or create the context of (m, d); NULL only if allocation fails
 ostContext* ost_context(const mjModel* m, const mjData* d);

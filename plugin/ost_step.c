@@ -163,6 +163,7 @@ static void restoreStart(ostContext* c, const mjModel* m, mjData* d) {
 // restore the pre-step state and recompute derived quantities after a failure
 static int abortStep(ostContext* c, const mjModel* m, mjData* d, int status) {
   c->warm_valid = 0;
+  c->published_valid = 0;
   c->rec_n = 0;
   c->rec_bytes = 0;
   restoreStart(c, m, d);
@@ -438,7 +439,20 @@ int ost_step1(const mjModel* m, mjData* d) {
   if (status) {
     return countStep(c, status);
   }
-  mj_step1(m, d);  // stock position/velocity stages at (q-, u-) and mjcb_control
+  // stock position/velocity stages at (q-, u-) and mjcb_control (mj_step1), unless the last
+  // step published exactly these stages at this state (ost_published.c): then only the callback
+  int reuse = ost_publishedCurrent(c, m, d);
+  if (reuse < 0) {
+    return countStep(c, OST_ERR_MEMORY);
+  }
+  if (!reuse) {
+    mj_step1(m, d);
+  } else {
+    c->totals.stages_reused++;
+    if (mjcb_control) {
+      mjcb_control(m, d);
+    }
+  }
   return OST_OK;
 }
 
@@ -728,6 +742,7 @@ static int step2(ostContext* c, const mjModel* m, mjData* d) {
   memset(&c->stats, 0, sizeof(c->stats));
   c->rec_n = 0;
   c->rec_bytes = 0;
+  c->published_valid = 0;
   saveState(m, d, c->state_start);
   if ((status = advanceGrowing(c, m, d, h))) {
     if (status == OST_ERR_OVERFLOW) {
@@ -756,6 +771,7 @@ static int step2(ostContext* c, const mjModel* m, mjData* d) {
   mj_fwdActuation(m, d);
   mj_fwdAcceleration(m, d);
   mj_sensorAcc(m, d);
+  ost_publishedSave(c, m, d);
   if (c->opt.geometry == OST_GEOMETRY_NATIVE) {
     // native contacts at q+ (the best iterate's), e.g. of a terrain mesh MuJoCo cannot collide
     mjtNum pen = 0;

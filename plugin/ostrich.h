@@ -251,6 +251,9 @@ typedef struct ostTotals_ {
   int    last_failure;            // ostStatus of the last failed step (0 if none)
   long   model_packs;             // times the private model was checked and packed again
                                   // because the model or the options changed (1 if never)
+  long   stages_reused;           // ost_step1 calls that reused the position and velocity
+                                  // stages the last step published at the same state, instead
+                                  // of running them again (bitwise the same result)
 } ostTotals;
 
 // Advance one step with Ostrich (mj_step semantics, mjcb_control included). Returns OST_OK,

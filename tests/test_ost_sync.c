@@ -2,7 +2,9 @@
 // (plugin/ost_sync.c). The model is checked and packed once over 1,000 steps; an edit of an array
 // a step reads is followed at the next step, with the same bits as a model that had the edit from
 // the start; a mesh edit is followed after ost_modelChanged; and the incremental path gives the
-// same bits as a full copy every step.
+// same bits as a full copy every step. A step reuses the stages the last one published
+// (plugin/ost_published.c) only while d is exactly as that step left it, with the same bits as
+// recomputing them.
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -132,12 +134,48 @@ START_TEST(test_incrementalEqualsFull) {
 END_TEST
 
 
+// ost_step1 reuses the position and velocity stages the last step published at the same state
+// (every step after the first of an unbroken run), and recomputes them once a user ran MuJoCo's
+// stages at another pose in between, even with the state put back: d2, whose stages are moved
+// to another pose and back before every step, takes the same bits as d1, which reuses them
+// (stale stages would put the mass matrix and bias forces of the other pose into its steps)
+START_TEST(test_stagesReused) {
+  ost_fixtureSetup();
+  mjModel* m = ost_fixtureLoadString(scene);
+  mjData* d1 = mj_makeData(m);
+  mjData* d2 = mj_makeData(m);
+  for (int k = 0; k < 200; k++) {
+    run(m, d1, 1);
+    if (k > 0) {
+      mjtNum q = d2->qpos[0];
+      d2->qpos[0] = q + 0.5;
+      mj_fwdPosition(m, d2);
+      mj_fwdVelocity(m, d2);
+      d2->qpos[0] = q;
+    }
+    run(m, d2, 1);
+    ck_assert_msg(sameState(m, d1, d2), "step %d: reused and recomputed stages differ", k);
+  }
+  ck_assert_int_eq(ost_totals(d1)->stages_reused, 199);
+  ck_assert_int_eq(ost_totals(d2)->stages_reused, 0);
+  // a mocap-free model's only other input, time: a step from a reset state recomputes them
+  mj_resetData(m, d1);
+  run(m, d1, 1);
+  ck_assert_int_eq(ost_totals(d1)->stages_reused, 199);
+  mj_deleteData(d1);
+  mj_deleteData(d2);
+  mj_deleteModel(m);
+}
+END_TEST
+
+
 int main(void) {
   Suite* s = suite_create("ost_sync");
   TCase* tc = tcase_create("sync");
   tcase_set_timeout(tc, 120);
   tcase_add_test(tc, test_packedOnce);
   tcase_add_test(tc, test_editFollowed);
+  tcase_add_test(tc, test_stagesReused);
   tcase_add_test(tc, test_incrementalEqualsFull);
   suite_add_tcase(s, tc);
   return ost_fixtureRun(s);

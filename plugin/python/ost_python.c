@@ -288,7 +288,7 @@ OSTPY_API const char* ostpy_name(const ostpyPhysics* p, int type, int id) {
   X(geometry_evals) X(ncon) X(nrow) X(residual) X(residual_first) X(max_penetration)            \
   X(initial_violation) X(islands) X(ncon_capacity)
 #define OSTPY_TOTALS(X) X(steps) X(failed) X(unconverged) X(depenetrated) X(overflow)            \
-  X(worst_residual) X(worst_initial_violation) X(last_failure) X(model_packs)
+  X(worst_residual) X(worst_initial_violation) X(last_failure) X(model_packs) X(stages_reused)
 
 #define OSTPY_NAME(f) #f ","
 
