@@ -1053,31 +1053,28 @@ OST_HD ostRowSet osti_islandSet(const ostWorld* w, int I) {
 
 #ifndef OST_NUM_TYPE  // the forward solver runs in doubles (the LU takes double)
 // A = J Mt^-1 J' + c / h on a set (n x n, symmetric) from the rows' half-solves in w->Yh
-// (osti_directSet): A_lm = sum_c y_l[c] y_m[c] over the columns two patterns share
+// (osti_directSet): A_lm = sum_c y_l[c] y_m[c] over the columns two patterns share. y_l is
+// scattered into a dense vector (zero off its pattern) and dotted with each y_m on y_m's
+// pattern: the columns y_l lacks add exact zeros, so the sum is bitwise the shared columns'
+// sum in ascending order, without a branchy merge of the two index lists
 OST_HD void osti_directAssemble(ostWorld* w, const ostRowSet* set, ostNum* A) {
   int n = set->n, ncol = w->ncol;
+  ostNum* yd = w->tmp;  // dense y_l (nv), zero off the current pattern
+  for (int c = 0; c < w->nv; c++) yd[c] = 0;
   for (int l = 0; l < n; l++) {
     int i = OST_SET_ROW(set, l);
     const int* il = w->Jind + (size_t)i * ncol;
     const ostNum* Yl = w->Yh + (size_t)l * ncol;
+    for (int a = 0; a < w->Jnnz[i]; a++) yd[il[a]] = Yl[a];
     for (int m = l; m < n; m++) {
       int j = OST_SET_ROW(set, m);
       const int* jm = w->Jind + (size_t)j * ncol;
       const ostNum* Ym = w->Yh + (size_t)m * ncol;
       ostNum s = 0;
-      for (int a = 0, e = 0; a < w->Jnnz[i] && e < w->Jnnz[j];) {
-        if (il[a] < jm[e]) {
-          a++;
-        } else if (il[a] > jm[e]) {
-          e++;
-        } else {
-          s += Yl[a] * Ym[e];
-          a++;
-          e++;
-        }
-      }
+      for (int e = 0; e < w->Jnnz[j]; e++) s += Ym[e] * yd[jm[e]];
       A[(size_t)l * n + m] = A[(size_t)m * n + l] = s;
     }
+    for (int a = 0; a < w->Jnnz[i]; a++) yd[il[a]] = 0;
     A[(size_t)l * n + l] += w->c[i] / w->h;
   }
 }
