@@ -78,6 +78,9 @@ typedef struct ostContext_ {
   int            warm_valid;      // 1 if state_end and the world's warm rows are valid
   mjtNum*        published;       // what the last publication left in d (ost_published.c)
   int            published_valid; // 1 if published holds the last step's publication
+  int            publish_full;    // 1: the publication runs mj_fwdPosition (tests compare the
+                                  // copy of the iterates' stages with it)
+  long           publish_copies;  // publications that copied the iterates' stages (tests)
   mjtNum*        jac;             // contact Jacobian scratch                     (12 x nv)
   int            ncon_cap;        // contacts the iterates have room for: m->nconmax, doubled
                                   // whenever the look-ahead overflows it (ost_growCapacity)
@@ -133,6 +136,12 @@ typedef struct ostContext_ {
 size_t ost_publishedSize(const mjModel* m);
 void ost_publishedSave(ostContext* c, const mjModel* m, const mjData* d);
 int ost_publishedCurrent(ostContext* c, const mjModel* m, const mjData* d);
+
+// MuJoCo's position stage at q+ into d for the publication: copied from the iterates' mjData
+// where it holds exactly that state (mujoco provider: the last geometry evaluation was the
+// committed iterate), then the rest of mj_fwdPosition; else mj_fwdPosition on d. Returns 1 if
+// copied.
+int ost_publishPosition(ostContext* c, mjData* d);
 
 // find or create the context of (m, d); NULL only if allocation fails
 ostContext* ost_context(const mjModel* m, const mjData* d);

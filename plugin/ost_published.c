@@ -74,3 +74,64 @@ int ost_publishedCurrent(ostContext* c, const mjModel* m, const mjData* d) {
   }
   return 1;
 }
+
+
+// MuJoCo's position stage that mj_kinematics, mj_comPos, mj_tendon and mj_transmission write
+// (mjxmacro.h's order), as (name, length): the iterates' mjData holds them at the last iterate
+#define OST_POSITION_STAGE(X, m)                                                           \
+  X(xpos, 3 * (m)->nbody) X(xquat, 4 * (m)->nbody) X(xmat, 9 * (m)->nbody)                 \
+  X(xipos, 3 * (m)->nbody) X(ximat, 9 * (m)->nbody) X(xanchor, 3 * (m)->njnt)              \
+  X(xaxis, 3 * (m)->njnt) X(geom_xpos, 3 * (m)->ngeom) X(geom_xmat, 9 * (m)->ngeom)        \
+  X(site_xpos, 3 * (m)->nsite) X(site_xmat, 9 * (m)->nsite) X(subtree_com, 3 * (m)->nbody) \
+  X(cdof, 6 * (m)->nv) X(cinert, 10 * (m)->nbody) X(ten_wrapadr, (m)->ntendon)             \
+  X(ten_wrapnum, (m)->ntendon) X(ten_J_rownnz, (m)->ntendon) X(ten_J_rowadr, (m)->ntendon) \
+  X(ten_J_colind, (m)->ntendon * (m)->nv) X(ten_length, (m)->ntendon)                      \
+  X(ten_J, (m)->ntendon * (m)->nv) X(wrap_obj, 2 * (m)->nwrap) X(wrap_xpos, 6 * (m)->nwrap) \
+  X(actuator_length, (m)->nu) X(actuator_moment, (m)->nu * (m)->nv)
+
+int ost_publishPosition(ostContext* c, mjData* d) {
+  const mjModel* mo = c->mo;
+  const mjData* dg = c->dg;
+  if (c->publish_full || c->opt.geometry == OST_GEOMETRY_NATIVE || !dg
+      || dg->ncon > mo->nconmax
+      || memcmp(dg->mocap_pos, d->mocap_pos, 3 * mo->nmocap * sizeof(mjtNum))
+      || memcmp(dg->mocap_quat, d->mocap_quat, 4 * mo->nmocap * sizeof(mjtNum))) {
+    mj_fwdPosition(mo, d);
+    return 0;
+  }
+  // the iterate's qpos is d's as mj_kinematics leaves it: quaternions normalized in place
+  for (int j = 0, next = 0; j <= mo->njnt; j++) {
+    int t = j < mo->njnt ? mo->jnt_type[j] : -1;
+    int adr = j < mo->njnt ? mo->jnt_qposadr[j] + (t == mjJNT_FREE ? 3 : 0) : mo->nq;
+    if (j < mo->njnt && t != mjJNT_FREE && t != mjJNT_BALL) {
+      continue;
+    }
+    // plain coordinates up to the quaternion, then the quaternion normalized
+    int quat = j < mo->njnt;
+    mjtNum q[4];
+    if (quat) {
+      mju_copy4(q, d->qpos + adr);
+      mju_normalize4(q);
+    }
+    if (memcmp(dg->qpos + next, d->qpos + next, (adr - next) * sizeof(mjtNum))
+        || (quat && memcmp(q, dg->qpos + adr, sizeof(q)))) {
+      mj_fwdPosition(mo, d);
+      return 0;
+    }
+    next = adr + 4 * quat;
+  }
+  memcpy(d->qpos, dg->qpos, mo->nq * sizeof(mjtNum));
+#define X(name, len) memcpy(d->name, dg->name, (size_t)(len) * sizeof(*d->name));
+  OST_POSITION_STAGE(X, mo)
+#undef X
+  d->ncon = dg->ncon;
+  memcpy(d->contact, dg->contact, dg->ncon * sizeof(mjContact));
+  // the rest of mj_fwdPosition on d (MuJoCo 2.2.2, engine_forward.c)
+  mj_camlight(mo, d);
+  mj_crb(mo, d);
+  mj_factorM(mo, d);
+  mj_makeConstraint(mo, d);
+  mj_projectConstraint(mo, d);
+  c->publish_copies++;
+  return 1;
+}

@@ -758,7 +758,7 @@ static int step2(ostContext* c, const mjModel* m, mjData* d) {
   // publish: MuJoCo's own contacts and rows at q+ (look-ahead model: contacts within the
   // look-ahead distance are listed, separated ones with zero force), forces = lambda
   int warn_con = d->warning[mjWARN_CONTACTFULL].number;
-  mj_fwdPosition(c->mo, d);
+  ost_publishPosition(c, d);
   if (d->warning[mjWARN_CONTACTFULL].number != warn_con) {
     c->stats.status |= OST_OVERFLOW;
   }
