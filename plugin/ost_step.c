@@ -100,10 +100,10 @@ void ost_setMargins(mjModel* mo, const mjModel* m, mjtNum lookahead) {
 // changed arrays are copied); only when it or the options changed are the options re-read, the
 // model checked and the model-derived data (servo flags, look-ahead margins, core pairs, the
 // native packing) rebuilt. ostTotals.model_packs counts those rebuilds.
-int ost_prepareContext(ostContext* c, const mjModel* m) {
+// changed: ost_syncModel's answer for this step
+static int prepareSynced(ostContext* c, const mjModel* m, int changed) {
   int status;
   c->err[0] = 0;
-  int changed = ost_syncModel(c, m);
   if (changed < 0) {
     return OST_ERR_MEMORY;
   }
@@ -135,6 +135,11 @@ int ost_prepareContext(ostContext* c, const mjModel* m) {
     c->totals.model_packs++;
   }
   return status;
+}
+
+
+int ost_prepareContext(ostContext* c, const mjModel* m) {
+  return prepareSynced(c, m, ost_syncModel(c, m));
 }
 
 
@@ -445,6 +450,7 @@ int ost_step1(const mjModel* m, mjData* d) {
   if (reuse < 0) {
     return countStep(c, OST_ERR_MEMORY);
   }
+  c->step1_synced = reuse;  // ost_publishedCurrent compared the model (ost_step reads it)
   if (!reuse) {
     mj_step1(m, d);
   } else {
@@ -714,7 +720,7 @@ static int advanceGrowing(ostContext* c, const mjModel* m, mjData* d, mjtNum h) 
 }
 
 
-static int step2(ostContext* c, const mjModel* m, mjData* d);
+static int step2(ostContext* c, const mjModel* m, mjData* d, int synced);
 
 int ost_step2(const mjModel* m, mjData* d) {
   if (!m) return -1;
@@ -723,14 +729,16 @@ int ost_step2(const mjModel* m, mjData* d) {
   if (!c) {
     return OST_ERR_MEMORY;
   }
-  return countStep(c, step2(c, m, d));
+  return countStep(c, step2(c, m, d, 0));
 }
 
 
-// ost_step2 on its context: the step, publication and statistics (uncounted)
-static int step2(ostContext* c, const mjModel* m, mjData* d) {
+// ost_step2 on its context: the step, publication and statistics (uncounted). synced: the
+// model was compared with the private one since the last step (ost_step1 of this ost_step).
+static int step2(ostContext* c, const mjModel* m, mjData* d, int synced) {
   int status;
-  if ((status = ost_prepareContext(c, m)) || (status = checkInputs(c, m, d, 1))) {
+  if ((status = prepareSynced(c, m, synced ? 0 : ost_syncModel(c, m)))
+      || (status = checkInputs(c, m, d, 1))) {
     return status;
   }
   mjtNum h = c->opt.timestep > 0 ? c->opt.timestep : m->opt.timestep;
@@ -788,7 +796,14 @@ static int step2(ostContext* c, const mjModel* m, mjData* d) {
 }
 
 
+// ost_step1 then the step: when ost_step1 reused the published stages it has compared the model
+// already, and only mjcb_control ran since (a control callback that edits the model is followed
+// from the next step on)
 int ost_step(const mjModel* m, mjData* d) {
   int status = ost_step1(m, d);
-  return status ? status : ost_step2(m, d);
+  if (status) {
+    return status;
+  }
+  ostContext* c = ost_context(m, d);
+  return countStep(c, step2(c, m, d, c->step1_synced));
 }
