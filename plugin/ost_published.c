@@ -5,8 +5,9 @@
 // d is provably where the publication left it: the state the stages read (time, qpos, qvel,
 // act, mocap poses), a fingerprint of their outputs (mass matrix, bias forces, body poses and
 // velocities, tendon lengths and velocities; a user who ran mj_forward or mj_kinematics at
-// another state in between changes these) and the model (ost_syncModel) are all unchanged.
-// Every comparison is bitwise, so a reused step equals a recomputed one bit for bit.
+// another state in between changes these) and the model (ost_syncModel) are all unchanged, and
+// no user callback runs inside those stages. Every comparison is bitwise, so a reused step
+// equals a recomputed one bit for bit.
 #include <string.h>
 
 #include "ost_internal.h"
@@ -35,12 +36,17 @@ void ost_publishedSave(ostContext* c, const mjModel* m, const mjData* d) {
   s += (len);
   OST_PUBLISHED_ARRAYS(m, d)
 #undef X
-  c->published_valid = 1;
+  // stages that ran a user callback are not reused, even once the callback is gone
+  c->published_valid = !(mjcb_passive || mjcb_sensor || mjcb_contactfilter);
 }
 
 
 int ost_publishedCurrent(ostContext* c, const mjModel* m, const mjData* d) {
-  if (!c->published_valid || c->model_dirty) {
+  // user callbacks inside these stages (passive forces, user sensors, a contact filter) may read
+  // state of the user's own that changed since the publication: with any of them the stages
+  // are run again, as mj_step1 would
+  if (!c->published_valid || c->model_dirty || mjcb_passive || mjcb_sensor
+      || mjcb_contactfilter) {
     return 0;
   }
   const mjtNum* s = c->published;

@@ -134,6 +134,13 @@ START_TEST(test_incrementalEqualsFull) {
 END_TEST
 
 
+// a passive-force callback that adds nothing
+static void zeroPassive(const mjModel* m, mjData* d) {
+  (void)m;
+  (void)d;
+}
+
+
 // ost_step1 reuses the position and velocity stages the last step published at the same state
 // (every step after the first of an unbroken run), and recomputes them once a user ran MuJoCo's
 // stages at another pose in between, even with the state put back: d2, whose stages are moved
@@ -162,6 +169,13 @@ START_TEST(test_stagesReused) {
   mj_resetData(m, d1);
   run(m, d1, 1);
   ck_assert_int_eq(ost_totals(d1)->stages_reused, 199);
+  // a passive-force callback may read the user's own state: the stages always run again
+  mjcb_passive = zeroPassive;
+  run(m, d1, 10);
+  mjcb_passive = NULL;
+  ck_assert_int_eq(ost_totals(d1)->stages_reused, 199);
+  run(m, d1, 10);
+  ck_assert_int_eq(ost_totals(d1)->stages_reused, 208);
   mj_deleteData(d1);
   mj_deleteData(d2);
   mj_deleteModel(m);
