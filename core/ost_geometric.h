@@ -55,7 +55,8 @@ extern "C" {
   X(ostNum, dl,      nrow_max, 1)     /* dlambda of the inner solves (discarded)     */       \
   X(ostNum, V,       nv, OST_GEO_KRYLOV + 1)  /* Krylov basis                        */       \
   X(ostNum, Hg,      OST_GEO_KRYLOV + 1, OST_GEO_KRYLOV + 3) /* Hessenberg, rotations */      \
-  X(ostNum, vec,     nv, 4)           /* u of a side, J' lambda of a side, T v, du   */
+  X(ostNum, vec,     nv, 4)           /* u of a side, J' lambda of a side, T v, du   */      \
+  X(ostNum, yrow,    nrow_max, ncol)  /* ostWorld.yrow's storage (host row cache)    */
 
 typedef struct ostGeoWork_ {      // geometric Newton state of one world (host only)
   int    mode;                    // 0 off; 1 engaged on a slow iterate; 2 every iterate

@@ -59,6 +59,13 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNu
 // islands of at most this many rows solve their Schur system directly (osti_directSet): the
 // dense Schur matrix from the rows' half-solves and an LU factor, instead of PCR or GMRES
 #define OST_DIRECT_MAX 96
+// the row half-solve cache (ostWorld.yrow) exists in host double builds only: CUDA kernels and
+// the dual-number builds of the adjoint compile the code without it
+#if !defined(__CUDACC__) && !defined(OST_NUM_TYPE)
+#define OST_ROW_CACHE 1
+#else
+#define OST_ROW_CACHE 0
+#endif
 #define OST_NDENSE(nrow_max) ((nrow_max) < OST_DIRECT_MAX ? (nrow_max) : OST_DIRECT_MAX)
 
 // One world's arrays. The X-macro is the single description of the layout: it drives the size
@@ -150,6 +157,9 @@ typedef struct ostWorld_ {        // one world: sizes and pointers into one allo
   const int* dof_parent;          // parent dof of each dof (-1: root), set with M: M is then
                                   // factored as a tree (ost_util_tree.h); NULL: dense Cholesky
   struct ostGeoWork_* geo;        // geometric Newton arrays (ost_geometric.h); NULL: none
+  ostNum* yrow;                   // host cache of each row's half-solve L^-T J_i' on its pattern
+                                  // (nrow_max x ncol; osti_rowDiag writes it, osti_directSet
+                                  // reads it); NULL: none (GPU, batches, the adjoint)
 #define X(type, name, r, c) type* name;
   OST_WORLD_ARRAYS(X)
 #undef X
@@ -207,6 +217,7 @@ OST_HD void ostu_worldInitFor(ostWorld* w, void* buf, int nv, int ncol, int nrow
   w->depen_speed = 0;
   w->dof_parent = NULL;
   w->geo = NULL;
+  w->yrow = NULL;
 #define X(type, name, r, c)                                         \
   w->name = (size_t)(r) * (size_t)(c) != 0 ? (type*)p : NULL;       \
   p += (((size_t)(r) * (c) * sizeof(type) + 63) / 64) * 64;
@@ -437,6 +448,9 @@ OST_HD void osti_rowDiag(ostWorld* w, int i) {
         y[j] -= w->M[(size_t)c * nv + j] * yc;
       }
       d += yc * yc / w->M[(size_t)c * nv + c];
+#if OST_ROW_CACHE
+      if (w->yrow) w->yrow[(size_t)i * w->ncol + k] = yc;  // osti_directSet reads it back
+#endif
     }
   } else {
     // a dense row (or a compressed one scattered into a dense vector) against either factor
@@ -1101,6 +1115,16 @@ OST_HD int osti_directSet(ostWorld* w, const ostRowSet* set, ostNum* x, const os
       y[ind[k]] = v[k];
     }
     ostNum* Y = w->Yh + (size_t)l * ncol;
+#if OST_ROW_CACHE
+    if (w->yrow) {
+      // the evaluated iterate's half-solve, as osti_rowDiag computed it from the same J and M
+      const ostNum* yr = w->yrow + (size_t)i * ncol;
+      for (int k = cnt - 1; k >= 0; k--) {
+        Y[k] = yr[k] / sqrt(w->M[(size_t)ind[k] * nv + ind[k]]);
+      }
+      continue;
+    }
+#endif
     for (int k = cnt - 1; k >= 0; k--) {
       int c = ind[k];
       ostNum yc = y[c];

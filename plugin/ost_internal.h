@@ -81,6 +81,7 @@ typedef struct ostContext_ {
   int            publish_full;    // 1: the publication runs mj_fwdPosition (tests compare the
                                   // copy of the iterates' stages with it)
   long           publish_copies;  // publications that copied the iterates' stages (tests)
+  int            no_row_cache;    // 1: steps without the rows' half-solve cache (tests)
   int            step1_synced;    // 1 if the last ost_step1 compared the model (and reused)
   mjtNum*        jac;             // contact Jacobian scratch                     (12 x nv)
   int            ncon_cap;        // contacts the iterates have room for: m->nconmax, doubled

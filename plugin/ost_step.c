@@ -636,6 +636,14 @@ static ostGeoWork* geometricNewton(ostContext* c) {
 }
 
 
+// the host-only work of a step on the world: the geometric term's arrays and the rows'
+// half-solve cache (same bits as without it; kept off the native provider like the term)
+static void hostWork(ostContext* c) {
+  c->world.geo = geometricNewton(c);
+  c->world.yrow = c->opt.geometry != OST_GEOMETRY_NATIVE && !c->no_row_cache ? c->geo.yrow : NULL;
+}
+
+
 static int failBits(int status) {
   return status == OST_ERR_OVERFLOW ? OST_STEP_OVERFLOW : OST_STEP_NAN;
 }
@@ -715,7 +723,7 @@ static int advanceGrowing(ostContext* c, const mjModel* m, mjData* d, mjtNum h) 
     }
     c->world.lookahead = c->opt.margin;
     c->world.depen_speed = c->opt.depenetration_speed;
-    c->world.geo = geometricNewton(c);
+    hostWork(c);
   }
 }
 
@@ -746,13 +754,15 @@ static int step2(ostContext* c, const mjModel* m, mjData* d, int synced) {
   w->lookahead = c->opt.margin;
   w->depen_speed = c->opt.depenetration_speed;
   c->geo.mode = c->opt.geometric_newton;
-  w->geo = geometricNewton(c);
+  hostWork(c);
   memset(&c->stats, 0, sizeof(c->stats));
   c->rec_n = 0;
   c->rec_bytes = 0;
   c->published_valid = 0;
   saveState(m, d, c->state_start);
-  if ((status = advanceGrowing(c, m, d, h))) {
+  status = advanceGrowing(c, m, d, h);
+  c->world.yrow = NULL;  // the cache is the step's: the adjoint and others run without it
+  if (status) {
     if (status == OST_ERR_OVERFLOW) {
       c->stats.status |= OST_OVERFLOW;
     }
