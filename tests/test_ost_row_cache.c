@@ -1,9 +1,10 @@
 // test_ost_row_cache.c: the rows' half-solve cache (ostWorld.yrow, core/ost_solver.h).
 // osti_rowDiag keeps each row's L^-T J_i' and the islands' direct Schur solves read it back
 // instead of solving again; the cache must change no bit. MuJoCo's humanoid falls, lands and
-// lies in contact (islands solved directly, sliding and sticking friction, joint limits) and
-// 22 humanoids (22 islands) step with and without it: every state equal bitwise, with the same
-// Newton iterates per step.
+// lies in contact (islands solved directly, sliding and sticking friction, joint limits),
+// 22 humanoids (22 islands) and a loaded tendon string (the geometric term's nested solves, run
+// while the geometry is moved and put back) step with and without it: every state equal
+// bitwise, with the same Newton iterates per step.
 #include <stdio.h>
 #include <string.h>
 
@@ -50,12 +51,22 @@ START_TEST(test_22_humanoids) {
 END_TEST
 
 
+START_TEST(test_tendon_string) {
+  ost_fixtureSetup();
+  char path[1024];
+  snprintf(path, sizeof(path), "%s/../tests/models/tendon_string.xml", OST_MODEL_DIR);
+  compare(path, 40);
+}
+END_TEST
+
+
 int main(void) {
   Suite* s = suite_create("ost_row_cache");
   TCase* tc = tcase_create("row_cache");
   tcase_set_timeout(tc, 120);
   tcase_add_test(tc, test_humanoid);
   tcase_add_test(tc, test_22_humanoids);
+  tcase_add_test(tc, test_tendon_string);
   suite_add_tcase(s, tc);
   SRunner* sr = srunner_create(s);
   srunner_run_all(sr, CK_NORMAL);
