@@ -20,6 +20,29 @@
   X((d)->xpos, 3 * (m)->nbody) X((d)->xquat, 4 * (m)->nbody) X((d)->cvel, 6 * (m)->nbody)   \
   X((d)->ten_length, (m)->ntendon) X((d)->ten_velocity, (m)->ntendon)
 
+// 1 if qpos, with its free and ball joints' quaternions normalized as mj_kinematics normalizes
+// them in place, equals ref bitwise (every coordinate of qpos belongs to one joint)
+static int kinematicQposEquals(const mjModel* m, const mjtNum* qpos, const mjtNum* ref) {
+  for (int j = 0; j < m->njnt; j++) {
+    int t = m->jnt_type[j], adr = m->jnt_qposadr[j];
+    int quat = t == mjJNT_FREE || t == mjJNT_BALL;
+    int plain = t == mjJNT_FREE ? 3 : quat ? 0 : 1;  // coordinates before the quaternion
+    if (memcmp(qpos + adr, ref + adr, plain * sizeof(mjtNum))) {
+      return 0;
+    }
+    if (quat) {
+      mjtNum q[4];
+      mju_copy4(q, qpos + adr + plain);
+      mju_normalize4(q);
+      if (memcmp(q, ref + adr + plain, sizeof(q))) {
+        return 0;
+      }
+    }
+  }
+  return 1;
+}
+
+
 size_t ost_publishedSize(const mjModel* m) {
   size_t n = 0;
 #define X(ptr, len) n += (size_t)(len);
@@ -60,17 +83,8 @@ int ost_publishedCurrent(ostContext* c, const mjModel* m, const mjData* d) {
   // mj_kinematics normalizes qpos's quaternions in place, and normalizing a normalized
   // quaternion can move it by an ulp: then the stages at the moved qpos are not the published
   // ones, bitwise, and are run again
-  for (int j = 0; j < m->njnt; j++) {
-    int t = m->jnt_type[j];
-    if (t == mjJNT_FREE || t == mjJNT_BALL) {
-      mjtNum q[4];
-      const mjtNum* qp = d->qpos + m->jnt_qposadr[j] + (t == mjJNT_FREE ? 3 : 0);
-      mju_copy4(q, qp);
-      mju_normalize4(q);
-      if (memcmp(q, qp, sizeof(q))) {
-        return 0;
-      }
-    }
+  if (!kinematicQposEquals(m, d->qpos, d->qpos)) {
+    return 0;
   }
   // the model last: a changed model is copied now and packed by ost_step2 (model_dirty)
   int changed = ost_syncModel(c, m);
@@ -106,25 +120,9 @@ int ost_publishPosition(ostContext* c, mjData* d) {
     return 0;
   }
   // the iterate's qpos is d's as mj_kinematics leaves it: quaternions normalized in place
-  for (int j = 0, next = 0; j <= mo->njnt; j++) {
-    int t = j < mo->njnt ? mo->jnt_type[j] : -1;
-    int adr = j < mo->njnt ? mo->jnt_qposadr[j] + (t == mjJNT_FREE ? 3 : 0) : mo->nq;
-    if (j < mo->njnt && t != mjJNT_FREE && t != mjJNT_BALL) {
-      continue;
-    }
-    // plain coordinates up to the quaternion, then the quaternion normalized
-    int quat = j < mo->njnt;
-    mjtNum q[4];
-    if (quat) {
-      mju_copy4(q, d->qpos + adr);
-      mju_normalize4(q);
-    }
-    if (memcmp(dg->qpos + next, d->qpos + next, (adr - next) * sizeof(mjtNum))
-        || (quat && memcmp(q, dg->qpos + adr, sizeof(q)))) {
-      mj_fwdPosition(mo, d);
-      return 0;
-    }
-    next = adr + 4 * quat;
+  if (!kinematicQposEquals(mo, d->qpos, dg->qpos)) {
+    mj_fwdPosition(mo, d);
+    return 0;
   }
   memcpy(d->qpos, dg->qpos, mo->nq * sizeof(mjtNum));
 #define X(name, len) memcpy(d->name, dg->name, (size_t)(len) * sizeof(*d->name));
