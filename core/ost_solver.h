@@ -83,6 +83,7 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNu
   X(ostNum,        qvel,          nv,       1)   /* current iterate u                      */   \
   X(ostNum,        qvel_best,     nv,       1)   /* best iterate u                         */   \
   X(ostNum,        qvel_base,     nv,       1)   /* u where the Newton direction was taken */   \
+  X(ostNum, qvel_first, OST_SOLVER_ROWS(nv), 1) /* u of the first iterate (k = 0)       */   \
   X(ostNum,        dqvel,         nv,       1)   /* Newton direction du                    */   \
   X(ostNum,        Minv_rdyn,     nv,       1)   /* Mt^-1 r_dyn at the iterate             */   \
   X(ostNum,        tmp,           nv,       2)   /* scratch                                */   \

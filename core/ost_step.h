@@ -277,7 +277,7 @@ OST_HD int osti_relaxStart(ostWorld* w, const ostSolverOptions* so, ostGeometryF
 // Returns 0, the geometry's status, or OST_NEWTON_NONFINITE.
 OST_HD int osti_newton(ostWorld* w, const ostSolverOptions* so, int linesearch, ostGeometryFn geom,
                        void* ctx, ostNum* merit_k, int* nrow_k, int nk, ostNewtonStats* st) {
-  int nv = w->nv, status = 0, best_k = -1, k;
+  int nv = w->nv, status = 0, best_k = -1, k, nrow_prev0 = w->nrow_prev;
   ostNum best = HUGE_VAL, merit = 0;
   st->iterates = 0;
   st->best = -1;
@@ -298,6 +298,7 @@ OST_HD int osti_newton(ostWorld* w, const ostSolverOptions* so, int linesearch, 
         status = osti_relaxStart(w, so, geom, ctx, &merit, st);
       }
       st->first = merit;
+      for (int j = 0; j < nv; j++) w->qvel_first[j] = w->qvel[j];
     } else if (w->nisland > 0) {
       status = osti_islandLineSearch(w, so, linesearch, geom, ctx, &merit, st);
     } else {
@@ -363,6 +364,24 @@ OST_HD int osti_newton(ostWorld* w, const ostSolverOptions* so, int linesearch, 
   if (best_k < 0) {
     st->best_merit = best;
     return OST_NEWTON_NONFINITE;
+  }
+
+  // never worse than the start: a loop that left the start's basin (every iterate from k_min
+  // on above tol and above the first iterate's merit, e.g. constraints that conflict) returns
+  // the first iterate, evaluated again as at k = 0 (same rows, multipliers and relaxation)
+  ostNum returned = w->nisland > 0 ? 0 : best;
+  for (int j = 0; w->nisland > 0 && j < nv; j++) {
+    returned = w->best_dof[j] > returned ? w->best_dof[j] : returned;
+  }
+  if (returned > so->tol && returned > st->first) {
+    osti_startStep(w, w->qvel_first, nrow_prev0 > 0);
+    if ((status = osti_trialIterate(w, so, 0, geom, ctx, &merit, st))) {
+      return status;
+    }
+    osti_islands(w);
+    st->best = 0;
+    st->best_merit = merit;
+    return 0;
   }
 
   if (w->nisland > 0) {

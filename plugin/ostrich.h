@@ -219,7 +219,9 @@ OSTAPI int ost_compareNative(const mjModel* m, int nstate, unsigned seed, ostNat
 typedef struct ostStats_ {
   int    status;                  // ostStatusBit flags
   int    newton_iter;             // Newton iterates evaluated
-  int    best_iter;               // index of the returned (best) iterate
+  int    best_iter;               // index of the returned (best) iterate: 0 (below k_min)
+                                  // when every later one was worse than the first and above
+                                  // tol (Newton left the start's basin; not converged)
   int    pcr_iter;                // PCR iterations summed over the step
   int    substeps;                // committed substeps (1 unless the step was split)
   int    geometry_evals;          // iterates whose geometry was evaluated (line search incl.)
