@@ -28,6 +28,10 @@ extern "C" {
 // returns 0 or the provider's own nonzero status, which ends the Newton loop
 typedef int (*ostGeometryFn)(void* ctx, const ostNum* u);
 
+// a Newton loop whose every iterate from k_min on has more than this times its first iterate's
+// merit (and is above tol) diverged: it returns the first (osti_newton)
+#define OST_DIVERGED 10
+
 // the Newton loop ended without one finite iterate
 #define OST_NEWTON_NONFINITE (-1)
 
@@ -366,14 +370,17 @@ OST_HD int osti_newton(ostWorld* w, const ostSolverOptions* so, int linesearch, 
     return OST_NEWTON_NONFINITE;
   }
 
-  // never worse than the start: a loop that left the start's basin (every iterate from k_min
-  // on above tol and above the first iterate's merit, e.g. constraints that conflict) returns
-  // the first iterate, evaluated again as at k = 0 (same rows, multipliers and relaxation)
+  // a loop that diverged returns its first iterate: when every iterate from k_min on stayed
+  // above tol and above OST_DIVERGED times the first iterate's merit (Newton left the start's
+  // basin, e.g. misled by constraints that conflict), the first is evaluated again as at k = 0
+  // (same rows, multipliers and relaxation). A loop that merely stalled near its start keeps its
+  // best later iterate, which moves on (the first may be the warm start's u- at rest: returning
+  // it would freeze the state step after step).
   ostNum returned = w->nisland > 0 ? 0 : best;
   for (int j = 0; w->nisland > 0 && j < nv; j++) {
     returned = w->best_dof[j] > returned ? w->best_dof[j] : returned;
   }
-  if (returned > so->tol && returned > st->first) {
+  if (returned > so->tol && returned > OST_DIVERGED * st->first) {
     osti_startStep(w, w->qvel_first, nrow_prev0 > 0);
     if ((status = osti_trialIterate(w, so, 0, geom, ctx, &merit, st))) {
       return status;

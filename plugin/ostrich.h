@@ -220,8 +220,8 @@ typedef struct ostStats_ {
   int    status;                  // ostStatusBit flags
   int    newton_iter;             // Newton iterates evaluated
   int    best_iter;               // index of the returned (best) iterate: 0 (below k_min)
-                                  // when every later one was worse than the first and above
-                                  // tol (Newton left the start's basin; not converged)
+                                  // when the loop diverged, every later iterate above tol and
+                                  // 10 times the first's merit (core/README.md, "Best iterate")
   int    pcr_iter;                // PCR iterations summed over the step
   int    substeps;                // committed substeps (1 unless the step was split)
   int    geometry_evals;          // iterates whose geometry was evaluated (line search incl.)

@@ -1,7 +1,7 @@
 // test_ost_solver.c: the per-world Newton step on hand-made problems with closed-form answers:
 // PCR solves the Schur system exactly, GMRES the non-symmetric one of sliding friction, the direct
-// solve of an island equals GMRES, a point mass lands on a hard floor, a velocity servo; the
-// Newton loop never returns an unconverged iterate worse than its first.
+// solve of an island equals GMRES, a point mass lands on a hard floor, a velocity servo; a
+// Newton loop that diverged returns its first iterate.
 #include "ost_solver.h"
 #include "ost_step.h"
 
@@ -243,12 +243,14 @@ END_TEST
 
 
 // A geometry provider whose Jacobian has the wrong sign: the contact's gap at q+ = q- + h u is
-// g0 - h u, but the row says +1, so every Newton direction deepens the penetration and every
+// g0 - s h u, but the row says +1, so every Newton direction deepens the penetration and every
 // iterate after the first is worse than it (the Newton model is wrong, as when conflicting
-// constraints or a geometry's discontinuity mislead it). The loop must then return its first
-// iterate, evaluated again (the same merit bit for bit), and report it as the best: before,
-// it returned the least bad later iterate, deeper and faster than the start.
-typedef struct { ostWorld* w; double g0; } wrongSign;
+// constraints or a geometry's discontinuity mislead it). With s = 1000 the first trial is 1000
+// times worse: the loop diverged and must return its first iterate, evaluated again (the same
+// merit bit for bit), reported as the best; before, it returned the least bad later iterate,
+// deeper and faster than the start. With s = 1 the later iterates are only a little worse
+// (a stall): the loop keeps its best later iterate, which moves on.
+typedef struct { ostWorld* w; double g0, s; } wrongSign;
 
 static int wrongSignGeometry(void* ctx, const ostNum* u) {
   wrongSign* p = (wrongSign*)ctx;
@@ -257,13 +259,14 @@ static int wrongSignGeometry(void* ctx, const ostNum* u) {
   w->rows[0] = (ostRow){0};
   w->rows[0].type = OST_ROW_CONTACT;
   w->rows[0].normal = -1;
-  w->rows[0].pos = p->g0 - w->h * u[0];
+  w->rows[0].pos = p->g0 - p->s * w->h * u[0];
   osti_rowScratch(w, 0)[0] = 1;
   return osti_rowStore(w, 0, 1);
 }
 
-START_TEST(test_neverWorseThanFirst) {
-  for (int tree = 0; tree < 2; tree++) {  // one system, then islands (a tree factor)
+START_TEST(test_divergedReturnsFirst) {
+  for (int c = 0; c < 4; c++) {
+    int tree = c & 1, diverge = c < 2;  // one system, then islands (a tree factor)
     ostWorld w;
     void* buf = makeWorld(&w, 1, 4, 0.1);
     static const int parent[1] = {-1};
@@ -274,22 +277,30 @@ START_TEST(test_neverWorseThanFirst) {
     ck_assert_int_eq(osti_factorMass(&w), 0);
     w.qvel_prev[0] = 0;
     w.qfrc_explicit[0] = 0;
-    wrongSign p = {&w, -0.01};  // 1 cm deep at u = 0
+    wrongSign p = {&w, -0.01, diverge ? 1000 : 1};  // 1 cm deep at u = 0
     osti_startStep(&w, (double[]){0}, 0);
     ostNewtonStats st;
     ostNum merit_k[9];
     ck_assert_int_eq(osti_newton(&w, &o, 4, wrongSignGeometry, &p, merit_k, NULL, 9, &st), 0);
-    printf("wrong-sign provider (%s): first merit %.6g, iterates 1..%d from %.6g to %.6g, "
-           "returned iterate %d with %.6g, u = %g\n", tree ? "islands" : "one system", st.first,
-           st.iterates - 1, merit_k[1], merit_k[st.iterates - 1], st.best, st.best_merit,
-           w.qvel[0]);
+    printf("wrong-sign provider x%g (%s): first merit %.6g, iterates 1..%d from %.6g to %.6g, "
+           "returned iterate %d with %.6g, u = %g\n", p.s, tree ? "islands" : "one system",
+           st.first, st.iterates - 1, merit_k[1], merit_k[st.iterates - 1], st.best,
+           st.best_merit, w.qvel[0]);
     ck_assert_int_eq(st.iterates, 9);
     ck_assert_int_eq(tree ? w.nisland : 0, tree);
-    for (int k = 1; k < st.iterates; k++) ck_assert_double_gt(merit_k[k], st.first);
-    ck_assert_int_eq(st.best, 0);
-    ck_assert(st.best_merit == st.first);
-    ck_assert(w.qvel[0] == 0);
-    ck_assert(w.rows[0].pos == -0.01);
+    for (int k = 1; k < st.iterates; k++) {
+      ck_assert_double_gt(merit_k[k], (diverge ? OST_DIVERGED : 1) * st.first);
+    }
+    if (diverge) {
+      ck_assert_int_eq(st.best, 0);
+      ck_assert(st.best_merit == st.first);
+      ck_assert(w.qvel[0] == 0);
+      ck_assert(w.rows[0].pos == -0.01);
+    } else {
+      ck_assert_int_eq(st.best, 1);
+      ck_assert(st.best_merit == merit_k[1]);
+      ck_assert_double_gt(w.qvel[0], 0);
+    }
     free(buf);
   }
 }
@@ -303,7 +314,7 @@ int main(void) {
   tcase_add_test(tc, test_pcr);
   tcase_add_test(tc, test_gmresSliding);
   tcase_add_test(tc, test_directMatchesGmres);
-  tcase_add_test(tc, test_neverWorseThanFirst);
+  tcase_add_test(tc, test_divergedReturnsFirst);
   suite_add_tcase(s, tc);
   return ost_fixtureRun(s);
 }
