@@ -11,6 +11,7 @@
 //   dynamics   Mt (u - u-) - h (f + J(q+)' lambda)                               (eq. 2)
 //   equality   (c(q+) + (E + reg h^2 d_eq) lambda) / h, d_eq osti_equalityScale  (eq. 3)
 //   contact    FB(gap + reg k lambda, k lambda) / h,  k = h^2 J_i Mt^-1 J_i'     (eq. 4)
+//              (floored by the contact's friction rows, osti_contactScale)
 //   friction   k_f (lambda_f - proj_{|.| <= mu lambda_n}(z)),
 //              z = lambda_f - (J_f u + c_s lambda_f) / k_f                       (eq. 5-7)
 //   servo      alpha (lambda - clamp(pos + b2 J u))                              (eq. 8)
@@ -395,7 +396,7 @@ OST_HD void osti_residualRowsJu(ostWorld* w, const ostNum* u, const ostNum* lamb
       break;
     case OST_ROW_LIMIT:
     case OST_ROW_CONTACT: {
-      ostNum k = h * h * w->diag[i], fa, fb;
+      ostNum k = h * h * osti_contactScale(w, i), fa, fb;
       r[i] = osti_fb(row->pos + reg * k * lam, k * lam, fb_eps, &fa, &fb) / h;
       break;
     }

@@ -636,6 +636,24 @@ OST_HD ostNum osti_equalityScale(const ostWorld* w, int i) {
 }
 
 
+// the effective-mass scale of contact or limit row i in its FB function: its own J_i Mt^-1 J_i',
+// but at least OST_NORMAL_FLOOR times the largest of its friction rows'. A contact whose normal
+// the dofs barely move while its tangents move freely (a capsule turning about its own axis
+// next to a box: J_n is 1e-11 of J_t, rounding) would scale its FB by k ~ 1e-25 m/N, and Newton
+// would drive its force to 1e10 N within an iterate; the FB's root set does not depend on k > 0,
+// so the floor changes only the conditioning (and the relative compliance reg k of such rows)
+#define OST_NORMAL_FLOOR 1e-3
+OST_HD ostNum osti_contactScale(const ostWorld* w, int i) {
+  ostNum d = w->diag[i];
+  int nf = w->rows[i].type == OST_ROW_CONTACT ? osti_frictionCount(w->rows, w->nrow, i) : 0;
+  for (int k = 1; k <= nf; k++) {
+    ostNum f = OST_NORMAL_FLOOR * w->diag[i + k];
+    d = f > d ? f : d;
+  }
+  return d;
+}
+
+
 // evaluate the iterate (qvel, lambda) with the rows and J filled for q(qvel): fills
 // Minv_rdyn, diag, Ju and the row form (c, rho); returns the squared merit residual
 //   |Mt^-1 r_dyn|^2 + sum_i m_i^2,  every term a velocity (m/s or rad/s)
@@ -684,7 +702,7 @@ OST_HD ostNum osti_evaluate(ostWorld* w, const ostSolverOptions* opt) {
       // FB(gap + reg k lambda, k lambda) = 0 with the effective-mass scale k = h^2 J_i Mt^-1 J_i'
       // (m/N): the displacement an impulse h*lambda causes in one step, so both arguments are
       // metres; the compliance reg*k makes the forces of redundant contacts unique
-      ostNum k = h * h * w->diag[i];
+      ostNum k = h * h * osti_contactScale(w, i);
       ostNum fa, fb;
       ostNum phi = osti_fb(r->pos + opt->reg * k * lam, k * lam, opt->fb_eps, &fa, &fb);
       ostNum a = fa > 1e-12 ? fa : 1e-12;
