@@ -11,7 +11,8 @@
 //   dynamics   Mt (u - u-) - h (f + J(q+)' lambda)                               (eq. 2)
 //   equality   (c(q+) + (E + reg h^2 d_eq) lambda) / h, d_eq osti_equalityScale  (eq. 3)
 //   contact    FB(gap + reg k lambda, k lambda) / h,  k = h^2 J_i Mt^-1 J_i'     (eq. 4)
-//              (floored by the contact's friction rows, osti_contactScale)
+//              (k_f lambda on each row of a contact whose normal cannot move,
+//              osti_contactImmobile)
 //   friction   k_f (lambda_f - proj_{|.| <= mu lambda_n}(z)),
 //              z = lambda_f - (J_f u + c_s lambda_f) / k_f                       (eq. 5-7)
 //   servo      alpha (lambda - clamp(pos + b2 J u))                              (eq. 8)
@@ -396,7 +397,13 @@ OST_HD void osti_residualRowsJu(ostWorld* w, const ostNum* u, const ostNum* lamb
       break;
     case OST_ROW_LIMIT:
     case OST_ROW_CONTACT: {
-      ostNum k = h * h * osti_contactScale(w, i), fa, fb;
+      int nf = osti_frictionCount(w->rows, nrow, i);
+      ostNum k, fa, fb;
+      if (row->type == OST_ROW_CONTACT && osti_contactImmobile(w, i, nf, &k)) {
+        for (int q = 0; q <= nf; q++) r[i + q] = k * lambda[i + q];  // held at zero force
+        break;
+      }
+      k = h * h * w->diag[i];
       r[i] = osti_fb(row->pos + reg * k * lam, k * lam, fb_eps, &fa, &fb) / h;
       break;
     }
@@ -408,6 +415,10 @@ OST_HD void osti_residualRowsJu(ostWorld* w, const ostNum* u, const ostNum* lamb
       }
       int n = i - 1, nf = osti_frictionCount(w->rows, nrow, n);
       ostNum kf = 0;
+      if (osti_contactImmobile(w, n, nf, &kf)) {
+        break;  // filled with its contact row
+      }
+      kf = 0;
       for (int k = 0; k < nf; k++) {
         kf += w->diag[i + k];
       }

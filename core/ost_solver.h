@@ -636,21 +636,37 @@ OST_HD ostNum osti_equalityScale(const ostWorld* w, int i) {
 }
 
 
-// the effective-mass scale of contact or limit row i in its FB function: its own J_i Mt^-1 J_i',
-// but at least OST_NORMAL_FLOOR times the largest of its friction rows'. A contact whose normal
-// the dofs barely move while its tangents move freely (a capsule turning about its own axis
-// next to a box: J_n is 1e-11 of J_t, rounding) would scale its FB by k ~ 1e-25 m/N, and Newton
-// would drive its force to 1e10 N within an iterate; the FB's root set does not depend on k > 0,
-// so the floor changes only the conditioning (and the relative compliance reg k of such rows)
-#define OST_NORMAL_FLOOR 1e-3
-OST_HD ostNum osti_contactScale(const ostWorld* w, int i) {
-  ostNum d = w->diag[i];
-  int nf = w->rows[i].type == OST_ROW_CONTACT ? osti_frictionCount(w->rows, w->nrow, i) : 0;
+// 1 if contact row i (nf friction rows after it) has a normal that no dof moves while its
+// tangents move: J_n Mt^-1 J_n' below OST_IMMOBILE times its largest friction row's (|J_n| below
+// 1e-6 of |J_t| in the Mt^-1 norm: a capsule turning about its own axis next to another geom,
+// or two gripper pads that slide past each other edge to edge, where J_n is rounding). Its gap
+// can neither close nor open, so it carries no force: its rows are held at lambda = 0
+// (osti_immobileRows). Given their FB function, Newton would scale the force by k ~ 1e-25 m/N
+// and drive it to 1e10 N within an iterate.
+#define OST_IMMOBILE 1e-6
+OST_HD int osti_contactImmobile(const ostWorld* w, int i, int nf, ostNum* kf) {
+  ostNum df = 0;
   for (int k = 1; k <= nf; k++) {
-    ostNum f = OST_NORMAL_FLOOR * w->diag[i + k];
-    d = f > d ? f : d;
+    df = w->diag[i + k] > df ? w->diag[i + k] : df;
   }
-  return d;
+  *kf = w->h * df;
+  return nf > 0 && w->diag[i] < OST_IMMOBILE * df;
+}
+
+
+// the rows i .. i + nf of an immobile contact (osti_contactImmobile) held at zero force, as the
+// fixed friction rows of osti_frictionRows: residual k_f lambda each (velocity units), Newton
+// update dlambda = -lambda. Returns the squared merit.
+OST_HD ostNum osti_immobileRows(ostWorld* w, int i, int nf, ostNum kf) {
+  ostNum m2 = 0;
+  for (int k = 0; k <= nf; k++) {
+    ostNum m = kf * w->lambda[i + k];
+    w->c[i + k] = kf * OST_FIXED_ROW;
+    w->rho[i + k] = m * OST_FIXED_ROW;
+    w->W[i + k] = 0;
+    m2 += m * m;
+  }
+  return m2;
 }
 
 
@@ -702,14 +718,22 @@ OST_HD ostNum osti_evaluate(ostWorld* w, const ostSolverOptions* opt) {
       // FB(gap + reg k lambda, k lambda) = 0 with the effective-mass scale k = h^2 J_i Mt^-1 J_i'
       // (m/N): the displacement an impulse h*lambda causes in one step, so both arguments are
       // metres; the compliance reg*k makes the forces of redundant contacts unique
-      ostNum k = h * h * osti_contactScale(w, i);
+      int nf = osti_frictionCount(w->rows, nrow, i);
+      ostNum kf;
+      if (r->type == OST_ROW_CONTACT && osti_contactImmobile(w, i, nf, &kf)) {
+        ostNum m2 = osti_immobileRows(w, i, nf, kf);
+        merit += m2;
+        m_i = 0;
+        fric2 = m2;
+        break;
+      }
+      ostNum k = h * h * w->diag[i];
       ostNum fa, fb;
       ostNum phi = osti_fb(r->pos + opt->reg * k * lam, k * lam, opt->fb_eps, &fa, &fb);
       ostNum a = fa > 1e-12 ? fa : 1e-12;
       w->c[i] = opt->reg * k / h + fb * k / (h * a);
       w->rho[i] = phi / (h * a);
       m_i = phi / h;
-      int nf = osti_frictionCount(w->rows, nrow, i);
       if (nf) {
         ostNum mf = osti_frictionRows(w, i, nf, opt->reg, opt->creep);
         merit += mf;
