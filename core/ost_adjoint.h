@@ -11,8 +11,8 @@
 //   dynamics   Mt (u - u-) - h (f + J(q+)' lambda)                               (eq. 2)
 //   equality   (c(q+) + (E + reg h^2 d_eq) lambda) / h, d_eq osti_equalityScale  (eq. 3)
 //   contact    FB(gap + reg k lambda, k lambda) / h,  k = h^2 J_i Mt^-1 J_i'     (eq. 4)
-//              (k_f lambda on each row of a contact whose normal cannot move,
-//              osti_contactImmobile)
+//              (the contact's largest over its rows, osti_contactScale; k_f lambda on each
+//              row of a contact whose normal cannot move, osti_contactImmobile)
 //   friction   k_f (lambda_f - proj_{|.| <= mu lambda_n}(z)),
 //              z = lambda_f - (J_f u + c_s lambda_f) / k_f                       (eq. 5-7)
 //   servo      alpha (lambda - clamp(pos + b2 J u))                              (eq. 8)
@@ -403,7 +403,7 @@ OST_HD void osti_residualRowsJu(ostWorld* w, const ostNum* u, const ostNum* lamb
         for (int q = 0; q <= nf; q++) r[i + q] = k * lambda[i + q];  // held at zero force
         break;
       }
-      k = h * h * w->diag[i];
+      k = h * h * osti_contactScale(w, i, nf);
       r[i] = osti_fb(row->pos + reg * k * lam, k * lam, fb_eps, &fa, &fb) / h;
       break;
     }

@@ -638,12 +638,13 @@ OST_HD ostNum osti_equalityScale(const ostWorld* w, int i) {
 
 // 1 if contact row i (nf friction rows after it) has a normal that no dof moves while its
 // tangents move: J_n Mt^-1 J_n' below OST_IMMOBILE times its largest friction row's (|J_n| below
-// 1e-6 of |J_t| in the Mt^-1 norm: a capsule turning about its own axis next to another geom,
-// or two gripper pads that slide past each other edge to edge, where J_n is rounding). Its gap
-// can neither close nor open, so it carries no force: its rows are held at lambda = 0
-// (osti_immobileRows). Given their FB function, Newton would scale the force by k ~ 1e-25 m/N
-// and drive it to 1e10 N within an iterate.
-#define OST_IMMOBILE 1e-6
+// 1e-7 of |J_t| in the Mt^-1 norm, rounding: a capsule turning about its own axis next to
+// another geom, two gripper pads that slide past each other edge to edge). Its gap can neither
+// close nor open, so it carries no force: its rows are held at lambda = 0 (osti_immobileRows).
+// Given their FB function, Newton would scale the force by k ~ 1e-25 m/N and drive it to 1e10 N
+// within an iterate. The bound stays far below any physical ratio: a wheel's normal against its
+// spin is I_wheel / (M r^2), 1e-5 for a light wheel under a heavy vehicle.
+#define OST_IMMOBILE 1e-14
 OST_HD int osti_contactImmobile(const ostWorld* w, int i, int nf, ostNum* kf) {
   ostNum df = 0;
   for (int k = 1; k <= nf; k++) {
@@ -651,6 +652,24 @@ OST_HD int osti_contactImmobile(const ostWorld* w, int i, int nf, ostNum* kf) {
   }
   *kf = w->h * df;
   return nf > 0 && w->diag[i] < OST_IMMOBILE * df;
+}
+
+
+// the scale k / h^2 of contact row i's FB function (nf friction rows after it): the largest
+// J Mt^-1 J' over the contact's rows, as equality rows take their constraint's largest
+// (osti_equalityScale). The FB's roots do not depend on k > 0, but its smoothing does: with
+// fb_eps the root of a contact whose gap stays open has k lambda = fb_eps^2 / (2 gap), a force
+// that grows as k shrinks and lets friction act up to mu lambda. Scaled by its normal alone, a
+// contact whose normal moves little against its tangents (a sphere turning about an axis 2 um
+// off its centre, 4 mm from a box) got a spurious 1e-3 N and braked the sphere by 17 % in 0.4 s;
+// with the contact's largest row the spurious force moves no direction by more than
+// mu fb_eps^2 / (2 gap), 1e-16 m. It also keeps such normals' Newton updates in scale.
+OST_HD ostNum osti_contactScale(const ostWorld* w, int i, int nf) {
+  ostNum d = w->diag[i];
+  for (int k = 1; k <= nf; k++) {
+    d = w->diag[i + k] > d ? w->diag[i + k] : d;
+  }
+  return d;
 }
 
 
@@ -716,8 +735,9 @@ OST_HD ostNum osti_evaluate(ostWorld* w, const ostSolverOptions* opt) {
     case OST_ROW_LIMIT:
     case OST_ROW_CONTACT: {
       // FB(gap + reg k lambda, k lambda) = 0 with the effective-mass scale k = h^2 J_i Mt^-1 J_i'
-      // (m/N): the displacement an impulse h*lambda causes in one step, so both arguments are
-      // metres; the compliance reg*k makes the forces of redundant contacts unique
+      // (m/N; a contact's largest over its rows, osti_contactScale): the displacement an impulse
+      // h*lambda causes in one step, so both arguments are metres; the compliance reg*k makes
+      // the forces of redundant contacts unique
       int nf = osti_frictionCount(w->rows, nrow, i);
       ostNum kf;
       if (r->type == OST_ROW_CONTACT && osti_contactImmobile(w, i, nf, &kf)) {
@@ -727,7 +747,7 @@ OST_HD ostNum osti_evaluate(ostWorld* w, const ostSolverOptions* opt) {
         fric2 = m2;
         break;
       }
-      ostNum k = h * h * w->diag[i];
+      ostNum k = h * h * osti_contactScale(w, i, nf);
       ostNum fa, fb;
       ostNum phi = osti_fb(r->pos + opt->reg * k * lam, k * lam, opt->fb_eps, &fa, &fb);
       ostNum a = fa > 1e-12 ? fa : 1e-12;
