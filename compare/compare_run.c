@@ -607,7 +607,7 @@ static int cmp_stepOnce(const mjModel* m, mjData* d, const cmpRunSpec* spec, cmp
   if (status != OST_OK || cmp_mujoco_error[0]) {
     res->outcome = CMP_STEP_FAILED;
     res->failed = 1;
-    snprintf(res->why, sizeof(res->why), "step %ld failed: %s", res->steps + 1,
+    snprintf(res->why, sizeof(res->why), "step %ld failed: %.960s", res->steps + 1,
              status != OST_OK ? ost_lastError(d) : cmp_mujoco_error);
     return 1;
   }
