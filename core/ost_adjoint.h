@@ -11,8 +11,8 @@
 //   dynamics   Mt (u - u-) - h (f + J(q+)' lambda)                               (eq. 2)
 //   equality   (c(q+) + (E + reg h^2 d_eq) lambda) / h, d_eq osti_equalityScale  (eq. 3)
 //   contact    FB(gap + reg k lambda, k lambda) / h,  k = h^2 J_i Mt^-1 J_i'     (eq. 4)
-//              (the contact's largest over its rows, osti_contactScale; k_f lambda on each
-//              row of a contact whose normal cannot move, osti_contactImmobile)
+//              (floored by its friction rows', osti_contactScale; k_f lambda on each row of
+//              a contact whose normal cannot move, osti_contactImmobile)
 //   friction   k_f (lambda_f - proj_{|.| <= mu lambda_n}(z)),
 //              z = lambda_f - (J_f u + c_s lambda_f) / k_f                       (eq. 5-7)
 //   servo      alpha (lambda - clamp(pos + b2 J u))                              (eq. 8)

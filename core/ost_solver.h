@@ -655,19 +655,21 @@ OST_HD int osti_contactImmobile(const ostWorld* w, int i, int nf, ostNum* kf) {
 }
 
 
-// the scale k / h^2 of contact row i's FB function (nf friction rows after it): the largest
-// J Mt^-1 J' over the contact's rows, as equality rows take their constraint's largest
-// (osti_equalityScale). The FB's roots do not depend on k > 0, but its smoothing does: with
-// fb_eps the root of a contact whose gap stays open has k lambda = fb_eps^2 / (2 gap), a force
-// that grows as k shrinks and lets friction act up to mu lambda. Scaled by its normal alone, a
-// contact whose normal moves little against its tangents (a sphere turning about an axis 2 um
-// off its centre, 4 mm from a box) got a spurious 1e-3 N and braked the sphere by 17 % in 0.4 s;
-// with the contact's largest row the spurious force moves no direction by more than
-// mu fb_eps^2 / (2 gap), 1e-16 m. It also keeps such normals' Newton updates in scale.
+// the scale k / h^2 of contact row i's FB function (nf friction rows after it): its own
+// J_n Mt^-1 J_n', floored at OST_NORMAL_FLOOR times its largest friction row's. The FB's roots do
+// not depend on k > 0, but its smoothing does: with fb_eps the root of a contact whose gap stays
+// open has k lambda = fb_eps^2 / (2 gap), a force that grows as k shrinks, and friction may act
+// up to mu times it. A contact whose normal the dofs move little against its tangents (a sphere
+// turning about an axis 2 um off its centre, 4 mm from a box: J_n 1e-4 of J_t) got a spurious
+// 1e-3 N and braked the sphere by 17 % in 0.4 s; with the floor its tangents move by at most
+// mu fb_eps^2 / (2 gap OST_NORMAL_FLOOR) per step. Ordinary contacts (normal and tangents within
+// a factor of 100) keep their scale and their bits.
+#define OST_NORMAL_FLOOR 1e-2
 OST_HD ostNum osti_contactScale(const ostWorld* w, int i, int nf) {
   ostNum d = w->diag[i];
   for (int k = 1; k <= nf; k++) {
-    d = w->diag[i + k] > d ? w->diag[i + k] : d;
+    ostNum f = OST_NORMAL_FLOOR * w->diag[i + k];
+    d = f > d ? f : d;
   }
   return d;
 }
@@ -735,9 +737,9 @@ OST_HD ostNum osti_evaluate(ostWorld* w, const ostSolverOptions* opt) {
     case OST_ROW_LIMIT:
     case OST_ROW_CONTACT: {
       // FB(gap + reg k lambda, k lambda) = 0 with the effective-mass scale k = h^2 J_i Mt^-1 J_i'
-      // (m/N; a contact's largest over its rows, osti_contactScale): the displacement an impulse
-      // h*lambda causes in one step, so both arguments are metres; the compliance reg*k makes
-      // the forces of redundant contacts unique
+      // (m/N; floored by the contact's friction rows, osti_contactScale): the displacement an
+      // impulse h*lambda causes in one step, so both arguments are metres; the compliance reg*k
+      // makes the forces of redundant contacts unique
       int nf = osti_frictionCount(w->rows, nrow, i);
       ostNum kf;
       if (r->type == OST_ROW_CONTACT && osti_contactImmobile(w, i, nf, &kf)) {

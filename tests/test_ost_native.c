@@ -180,19 +180,18 @@ END_TEST
 // one step from the same state with each provider, at 100 states along a native run: equal to
 // 1e-8. Budget of 2 Newton iterates, no splitting, no warm start, so both providers take the
 // same iterates (two unconverged iterates amplify round-off: on the height field one state of
-// 100 differed by 6.7e-8 before osti_contactScale, none since). Terrain at ostrich/margin 0 (the mujoco provider's
+// 100 differs by 6.7e-8, measured). Terrain at ostrich/margin 0 (the mujoco provider's
 // condition for height fields); the mesh terrain is compared against the height field with
 // the same triangles: MuJoCo stores mesh vertices as floats, so the two surfaces differ by about
-// 1e-7 m and the steps by up to 1.95e-3 (measured; 9.2e-4 before contacts took the FB scale of
-// their largest row, osti_contactScale), bounded at 3e-3. The terrain rows' bounds and counts
-// are regression baselines (measured values beside them), kept to catch drift.
+// 1e-7 m and the steps by up to 9.2e-4 (measured), bounded at 1e-3. The terrain rows' bounds
+// and counts are regression baselines (measured values beside them), kept to catch drift.
 START_TEST(test_nativeStepFromSameState) {
   ost_fixtureSetup();
   const struct { const char* a; const char* b; double margin, tol; int min_equal; } cases[] = {
     {"wheeled_robot.xml", "wheeled_robot.xml", 0.01, 1e-8, 100},
     {"robot_pallet.xml", "robot_pallet.xml", 0.01, 1e-8, 100},
-    {"terrain_hfield.xml", "terrain_hfield.xml", 0, 1e-7, 95},  // measured 100, 9.3e-15
-    {"terrain_hfield.xml", "terrain_mesh.xml", 0, 3e-3, 5},     // measured 57 of 100, 1.95e-3
+    {"terrain_hfield.xml", "terrain_hfield.xml", 0, 1e-7, 95},  // measured 99, 6.7e-8
+    {"terrain_hfield.xml", "terrain_mesh.xml", 0, 1e-3, 5},     // measured 26 of 100, 9.2e-4
   };
   for (int c = 0; c < 4; c++) {
     mjModel* ma = ost_fixtureLoadModel(cases[c].a);
