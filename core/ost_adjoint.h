@@ -398,12 +398,12 @@ OST_HD void osti_residualRowsJu(ostWorld* w, const ostNum* u, const ostNum* lamb
     case OST_ROW_LIMIT:
     case OST_ROW_CONTACT: {
       int nf = osti_frictionCount(w->rows, nrow, i);
-      ostNum k, fa, fb;
-      if (row->type == OST_ROW_CONTACT && osti_contactImmobile(w, i, nf, &k)) {
-        for (int q = 0; q <= nf; q++) r[i + q] = k * lambda[i + q];  // held at zero force
+      ostNum df = osti_frictionDiagMax(w, i, nf), fa, fb;
+      if (row->type == OST_ROW_CONTACT && osti_contactImmobile(w, i, df)) {
+        for (int q = 0; q <= nf; q++) r[i + q] = h * df * lambda[i + q];  // held at zero force
         break;
       }
-      k = h * h * osti_contactScale(w, i, nf);
+      ostNum k = h * h * osti_contactScale(w, i, df);
       r[i] = osti_fb(row->pos + reg * k * lam, k * lam, fb_eps, &fa, &fb) / h;
       break;
     }
@@ -414,11 +414,10 @@ OST_HD void osti_residualRowsJu(ostWorld* w, const ostNum* u, const ostNum* lamb
         break;
       }
       int n = i - 1, nf = osti_frictionCount(w->rows, nrow, n);
-      ostNum kf = 0;
-      if (osti_contactImmobile(w, n, nf, &kf)) {
+      if (osti_contactImmobile(w, n, osti_frictionDiagMax(w, n, nf))) {
         break;  // filled with its contact row
       }
-      kf = 0;
+      ostNum kf = 0;
       for (int k = 0; k < nf; k++) {
         kf += w->diag[i + k];
       }

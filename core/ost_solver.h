@@ -636,48 +636,50 @@ OST_HD ostNum osti_equalityScale(const ostWorld* w, int i) {
 }
 
 
-// 1 if contact row i (nf friction rows after it) has a normal that no dof moves while its
-// tangents move: J_n Mt^-1 J_n' below OST_IMMOBILE times its largest friction row's (|J_n| below
-// 1e-7 of |J_t| in the Mt^-1 norm, rounding: a capsule turning about its own axis next to
-// another geom, two gripper pads that slide past each other edge to edge). Its gap can neither
-// close nor open, so it carries no force: its rows are held at lambda = 0 (osti_immobileRows).
-// Given their FB function, Newton would scale the force by k ~ 1e-25 m/N and drive it to 1e10 N
-// within an iterate. The bound stays far below any physical ratio: a wheel's normal against its
-// spin is I_wheel / (M r^2), 1e-5 for a light wheel under a heavy vehicle.
-#define OST_IMMOBILE 1e-14
-OST_HD int osti_contactImmobile(const ostWorld* w, int i, int nf, ostNum* kf) {
+// the largest J Mt^-1 J' of the nf friction rows after contact row i (0 without friction): the
+// reference of osti_contactImmobile and osti_contactScale
+OST_HD ostNum osti_frictionDiagMax(const ostWorld* w, int i, int nf) {
   ostNum df = 0;
   for (int k = 1; k <= nf; k++) {
     df = w->diag[i + k] > df ? w->diag[i + k] : df;
   }
-  *kf = w->h * df;
-  return nf > 0 && w->diag[i] < OST_IMMOBILE * df;
+  return df;
 }
 
 
-// the scale k / h^2 of contact row i's FB function (nf friction rows after it): its own
-// J_n Mt^-1 J_n', floored at OST_NORMAL_FLOOR times its largest friction row's. The FB's roots do
-// not depend on k > 0, but its smoothing does: with fb_eps the root of a contact whose gap stays
-// open has k lambda = fb_eps^2 / (2 gap), a force that grows as k shrinks, and friction may act
-// up to mu times it. A contact whose normal the dofs move little against its tangents (a sphere
-// turning about an axis 2 um off its centre, 4 mm from a box: J_n 1e-4 of J_t) got a spurious
-// 1e-3 N and braked the sphere by 17 % in 0.4 s; with the floor its tangents move by at most
+// 1 if contact row i, whose friction rows' largest diagonal is df, has a normal that no dof
+// moves while its tangents move: J_n Mt^-1 J_n' below OST_IMMOBILE df (|J_n| below 1e-7 of |J_t|
+// in the Mt^-1 norm, rounding: a capsule turning about its own axis next to another geom, two
+// gripper pads that slide past each other edge to edge). Its gap can neither close nor open, so
+// it carries no force: its rows are held at lambda = 0 (osti_immobileRows, with k_f = h df).
+// Given their FB function, Newton would scale the force by k ~ 1e-25 m/N and drive it to 1e10 N
+// within an iterate. The bound stays far below any physical ratio: a wheel's normal against its
+// spin is I_wheel / (M r^2), 1e-5 for a light wheel under a heavy vehicle.
+#define OST_IMMOBILE 1e-14
+OST_HD int osti_contactImmobile(const ostWorld* w, int i, ostNum df) {
+  return df > 0 && w->diag[i] < OST_IMMOBILE * df;
+}
+
+
+// the scale k / h^2 of contact row i's FB function: its own J_n Mt^-1 J_n', floored at
+// OST_NORMAL_FLOOR times df, its friction rows' largest. The FB's roots do not depend on k > 0,
+// but its smoothing does: with fb_eps the root of a contact whose gap stays open has
+// k lambda = fb_eps^2 / (2 gap), a force that grows as k shrinks, and friction may act up to mu
+// times it. A contact whose normal the dofs move little against its tangents (a sphere turning
+// about an axis 2 um off its centre, 4 mm from a box: J_n 1e-4 of J_t) got a spurious 1e-3 N and
+// braked the sphere by 17 % in 0.4 s; with the floor its tangents move by at most
 // mu fb_eps^2 / (2 gap OST_NORMAL_FLOOR) per step. Ordinary contacts (normal and tangents within
 // a factor of 100) keep their scale and their bits.
 #define OST_NORMAL_FLOOR 1e-2
-OST_HD ostNum osti_contactScale(const ostWorld* w, int i, int nf) {
-  ostNum d = w->diag[i];
-  for (int k = 1; k <= nf; k++) {
-    ostNum f = OST_NORMAL_FLOOR * w->diag[i + k];
-    d = f > d ? f : d;
-  }
-  return d;
+OST_HD ostNum osti_contactScale(const ostWorld* w, int i, ostNum df) {
+  ostNum f = OST_NORMAL_FLOOR * df;
+  return f > w->diag[i] ? f : w->diag[i];
 }
 
 
 // the rows i .. i + nf of an immobile contact (osti_contactImmobile) held at zero force, as the
-// fixed friction rows of osti_frictionRows: residual k_f lambda each (velocity units), Newton
-// update dlambda = -lambda. Returns the squared merit.
+// fixed friction rows of osti_frictionRows: residual k_f lambda each (velocity units, k_f = h df),
+// Newton update dlambda = -lambda. Returns the squared merit.
 OST_HD ostNum osti_immobileRows(ostWorld* w, int i, int nf, ostNum kf) {
   ostNum m2 = 0;
   for (int k = 0; k <= nf; k++) {
@@ -741,15 +743,15 @@ OST_HD ostNum osti_evaluate(ostWorld* w, const ostSolverOptions* opt) {
       // impulse h*lambda causes in one step, so both arguments are metres; the compliance reg*k
       // makes the forces of redundant contacts unique
       int nf = osti_frictionCount(w->rows, nrow, i);
-      ostNum kf;
-      if (r->type == OST_ROW_CONTACT && osti_contactImmobile(w, i, nf, &kf)) {
-        ostNum m2 = osti_immobileRows(w, i, nf, kf);
+      ostNum df = osti_frictionDiagMax(w, i, nf);
+      if (r->type == OST_ROW_CONTACT && osti_contactImmobile(w, i, df)) {
+        ostNum m2 = osti_immobileRows(w, i, nf, h * df);
         merit += m2;
         m_i = 0;
         fric2 = m2;
         break;
       }
-      ostNum k = h * h * osti_contactScale(w, i, nf);
+      ostNum k = h * h * osti_contactScale(w, i, df);
       ostNum fa, fb;
       ostNum phi = osti_fb(r->pos + opt->reg * k * lam, k * lam, opt->fb_eps, &fa, &fb);
       ostNum a = fa > 1e-12 ? fa : 1e-12;

@@ -125,9 +125,5 @@ int main(void) {
   tcase_add_test(tc, test_arm26);
   tcase_add_test(tc, test_mocap);
   suite_add_tcase(s, tc);
-  SRunner* sr = srunner_create(s);
-  srunner_run_all(sr, CK_NORMAL);
-  int failed = srunner_ntests_failed(sr);
-  srunner_free(sr);
-  return failed ? 1 : 0;
+  return ost_fixtureRun(s);
 }
