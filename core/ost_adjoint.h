@@ -37,6 +37,10 @@
 extern "C" {
 #endif
 
+// entries of a parameter offset table (ostdStep.param_adr): the offsets in theta of the six
+// ostParam groups of ostrich.h (friction, mass, damping, gain, biaspos, biasvel), then their total
+#define OST_PARAM_ADR 7
+
 typedef struct ostdStep_ {        // one committed (sub)step, as its backward pass needs it
   const void*   model;            // the packed ostModel (double) the step was taken with
   const double* qpos_prev;        // q-                                                 (nq)
@@ -55,7 +59,7 @@ typedef struct ostdStep_ {        // one committed (sub)step, as its backward pa
   double        creep;            // sticking creep (ostOptions.friction_creep, s/kg)
   double        fb_eps;           // Fischer-Burmeister smoothing
   int           nparam;           // parameter columns (0: none)
-  const int*    param_adr;        // offsets of the ostParam groups in theta (OST_NPARAM + 1)
+  const int*    param_adr;        // offsets of the ostParam groups in theta (OST_PARAM_ADR)
   const int*    pair_fric_geom;   // per candidate pair: the geoms whose friction it takes
                                   // (-1: none), so dmu/dtheta                  (npair x 2)
   const double* pair_fric_weight; // their weights (1, or 1/2 each at a tie)     (npair x 2)
@@ -153,7 +157,10 @@ typedef struct ostAdjointSettings_ { // what a record's backward pass needs besi
   double creep;                   // sticking creep (s/kg)
   double fb_eps;                  // Fischer-Burmeister smoothing
   int    truncate;                // 1: contact geometry held fixed within a step
-  int    pad;
+  int    param_adr[OST_PARAM_ADR];  // offsets of the parameter groups in theta (with
+                                  // ostAdjointLayout.nparam > 0; ostdStep.param_adr)
+  const int*    pair_fric_geom;   // per candidate pair, the geoms whose friction it takes
+  const double* pair_fric_weight; // and their weights (ostdStep; device memory on the GPU)
 } ostAdjointSettings;
 
 // one adjoint lane's arrays (type, name, count): the world it replays, its segment checkpoints
@@ -172,7 +179,7 @@ typedef struct ostAdjointSettings_ { // what a record's backward pass needs besi
   X(double, K,     (size_t)A->ny_max * A->ny_max)   /* its y block, LU-factored              */ \
   X(int,    piv,   A->ny_max)                       /* pivots                                */ \
   X(double, w,     A->ny_max)                       /* K' w = -O_y' g                        */ \
-  X(double, gxi,   A->ncol_max)                     /* cotangent of (dq-, u-, act-, ctrl)    */ \
+  X(double, gxi,   A->ncol_max)                     /* cotangent of (dq-, u-, act-, ctrl, theta) */ \
   X(double, g,     2 * A->s.nv + A->s.na)           /* running cotangent of (q, u, act)      */ \
   X(int,    info,  4)                               /* records, step, failed, ny             */
 
@@ -188,11 +195,11 @@ typedef struct ostAdjointLayout_ {  // where each array of an adjoint lane sits
   int    seg;                     // steps per segment (the checkpoint interval)
   int    rec_cap;                 // records a segment may hold
   int    ny_max;                  // nv + nrow_max
-  int    ncol_max;                // ny_max + 2 nv + na + nu
+  int    ncol_max;                // ny_max + 2 nv + na + nu + nparam
+  int    nparam;                  // parameter columns (0: no parameter gradients)
   int    nlane;                   // lanes
   int    njac;                    // threads sharing a record's columns (phase 3b)
   int    nckpt;                   // checkpoints a lane keeps: nseg, or 0 if the rollout kept them
-  int    pad;
   size_t world_stride;            // bytes of one world (ostBatchLayout.stride)
   size_t lane_stride;             // bytes of one batch lane (ostBatchLayout.lane_stride)
   size_t rec_size;                // bytes of one record
@@ -212,11 +219,11 @@ typedef struct ostAdjointLane_ {  // one lane's arrays
 
 
 // the layout of nlane adjoint lanes (A->s, nrow_max, nseg, seg, rec_cap, world_stride,
-// lane_stride, jac_size, njac and nckpt set by the caller)
+// lane_stride, jac_size, njac, nckpt and nparam set by the caller)
 OST_HD void ostu_adjointLayout(ostAdjointLayout* A, int nlane) {
   A->nlane = nlane;
   A->ny_max = A->s.nv + A->nrow_max;
-  A->ncol_max = A->ny_max + 2 * A->s.nv + A->s.na + A->s.nu;
+  A->ncol_max = A->ny_max + 2 * A->s.nv + A->s.na + A->s.nu + A->nparam;
   A->rec_size = ostu_stepRecSize(A->s, A->nrow_max);
   size_t off = 0;
 #define X(type, name, n)                 \
@@ -252,7 +259,8 @@ OST_HD void ostu_recordStep(ostdStep* st, ostStepRec* r, const ostAdjointLayout*
   ostu_recordAt(r, A, al, j);
   ostdStep s = {NULL, r->qpos_prev, r->qvel_prev, r->qvel, r->ctrl, NULL, NULL, r->rows,
                 r->lambda, *r->nrow, as->truncate, *r->h, as->lookahead, as->reg, as->creep,
-                as->fb_eps, 0, NULL, NULL, NULL, r->act_prev};
+                as->fb_eps, A->nparam, as->param_adr, as->pair_fric_geom,
+                as->pair_fric_weight, r->act_prev};
   *st = s;
 }
 

@@ -115,7 +115,10 @@ OST_HD void ostx_recordColumns(ostModel* m, const ostAdjointLayout* A, char* lan
   ostu_recordStep(&st, &r, A, &al, j, as);
   ostJacWork jw;
   ostx_jacWorkInit(&jw, work ? work : al.jac, m, A->nrow_max);
-  int ncol = ny + 2 * A->s.nv + A->s.na + A->s.nu;
+  if (A->nparam > 0) {
+    ostx_jacOwnParams(&jw);
+  }
+  int ncol = ny + 2 * A->s.nv + A->s.na + A->s.nu + A->nparam;
   if (ostx_jacColumnsSplit(&jw, &st, al.lam, ny, al.G, ncol, NULL, 0, t, A->njac, al.Rq, al.T)) {
     al.info[OST_ADJ_FAILED] = OST_STEP_OVERFLOW;
   }

@@ -37,6 +37,8 @@ typedef struct ostJacWork_ {      // the dual evaluation's state: pointers into 
   ostRow*   rec;                  // the recorded rows as dual rows (matching keys)
   ostNum*   rec_lambda;           // their multipliers
   unsigned char* used;            // matching scratch
+  ostModel* own;                  // room for a model of the work's own (ostx_jacOwnParams)
+  ostNum*   own_param;            // and for its parameter arrays
   int       nrow_max;
 } ostJacWork;
 
@@ -54,12 +56,20 @@ OST_HD size_t ostx_jacDoubles(ostSizes s, int nrow_max) {
 }
 
 
+// dual entries of the parameter arrays that ostx_seedParam writes: pair_friction (npair),
+// body_mass (nbody), dof_damping (nv), actuator_gainprm (nu) and actuator_biasprm (3 nu)
+OST_HD size_t ostx_jacParamVectors(ostSizes s) {
+  return (size_t)s.npair + s.nbody + s.nv + 4 * (size_t)s.nu;
+}
+
+
 // bytes of a work block for sizes s and row capacity nrow_max (each part 64-byte aligned)
 OST_HD size_t ostx_jacWorkSize(ostSizes s, int nrow_max) {
   return 2 * ostu_kinSize(s) + ostu_worldSizeFor(s.nv, s.nv, nrow_max, 0)
          + OST_ALIGN64(ostx_jacVectors(s, nrow_max) * sizeof(ostNum))
          + OST_ALIGN64(ostx_jacDoubles(s, nrow_max) * sizeof(double))
-         + OST_ALIGN64((size_t)nrow_max * sizeof(ostRow)) + OST_ALIGN64((size_t)nrow_max);
+         + OST_ALIGN64((size_t)nrow_max * sizeof(ostRow)) + OST_ALIGN64((size_t)nrow_max)
+         + OST_ALIGN64(sizeof(ostModel)) + OST_ALIGN64(ostx_jacParamVectors(s) * sizeof(ostNum));
 }
 
 
@@ -84,6 +94,10 @@ OST_HD void ostx_jacWorkInit(ostJacWork* wk, void* block, ostModel* m, int nrow_
   wk->rec = (ostRow*)p;
   p += OST_ALIGN64((size_t)nrow_max * sizeof(ostRow));
   wk->used = (unsigned char*)p;
+  p += OST_ALIGN64((size_t)nrow_max);
+  wk->own = (ostModel*)p;
+  p += OST_ALIGN64(sizeof(ostModel));
+  wk->own_param = (ostNum*)p;
   wk->qpos = v;   v += s.nq;
   wk->qplus = v;  v += s.nq;
   wk->qref = v;   v += s.nq;
@@ -106,6 +120,32 @@ OST_HD void ostx_jacWorkInit(ostJacWork* wk, void* block, ostModel* m, int nrow_
 }
 
 
+// Give the work a model of its own: a copy of its model whose parameter arrays (those
+// ostx_seedParam writes) live in the work's block, so that works sharing one dual model (a
+// batch's lanes and column threads) may seed parameters at the same time. The copies start
+// without seeds when the shared model has none.
+OST_HD void ostx_jacOwnParams(ostJacWork* wk) {
+  if (wk->m == wk->own) {
+    return;
+  }
+  const ostModel* m = wk->m;
+  ostSizes s = m->s;
+  *wk->own = *m;
+  ostNum* v = wk->own_param;
+#define OSTX_OWN(name, n)                                   \
+  for (size_t i_ = 0; i_ < (size_t)(n); i_++) v[i_] = m->name[i_]; \
+  wk->own->name = v;                                        \
+  v += (n);
+  OSTX_OWN(pair_friction, s.npair)
+  OSTX_OWN(body_mass, s.nbody)
+  OSTX_OWN(dof_damping, s.nv)
+  OSTX_OWN(actuator_gainprm, s.nu)
+  OSTX_OWN(actuator_biasprm, 3 * s.nu)
+#undef OSTX_OWN
+  wk->m = wk->own;
+}
+
+
 // set the derivatives of every parameter array the columns may seed back to zero
 OST_HD void ostx_clearParamSeeds(ostModel* m) {
   ostSizes s = m->s;
@@ -121,7 +161,7 @@ OST_HD void ostx_clearParamSeeds(ostModel* m) {
 OST_HD void ostx_seedParam(ostModel* m, const ostdStep* st, int p, int k) {
   const int* adr = st->param_adr;
   int g = 0;
-  while (g + 1 < 7 && p >= adr[g + 1]) {
+  while (g + 1 < OST_PARAM_ADR && p >= adr[g + 1]) {
     g++;
   }
   int i = p - adr[g];

@@ -16,7 +16,8 @@
 // warm start, splits and bits), so the gradient is that of the rollout the user saw, with
 // memory per lane of nseg world slices plus one segment's records (segment checkpointing).
 // Cotangent sequences are step-major, world-minor: gq, gu ((T + 1) x nworld x nv, the cotangent
-// of the state after step t - 1; NULL: zero), gctrl (T x nworld x nu, zeroed by the caller).
+// of the state after step t - 1; NULL: zero), gctrl (T x nworld x nu, zeroed by the caller);
+// gtheta (nworld x nparam, zeroed by the caller) is world-major.
 // Invariant: world i's pass reads the model, its start slice and the sequences, and writes only
 // its lane and its own entries of the outputs.
 #ifndef OSTRICH_CORE_OST_BATCH_ADJOINT_H_
@@ -103,10 +104,11 @@ OST_HD void osti_adjointReplay(const ostModel* m, const ostBatchLayout* L,
 
 // phase 3c: the implicit function theorem on the record whose Jacobian phases 3a and 3b left in
 // lane l's G (completed here, osti_jacAssemble): g, the cotangent of its (q+, u+), becomes that
-// of its (q-, u-), and its controls' cotangent accumulates into gctrl ((T x nworld x nu), or
-// NULL); OST_STEP_NAN if singular
+// of its (q-, u-), its controls' cotangent accumulates into gctrl ((T x nworld x nu), or NULL)
+// and, with A->nparam > 0, its parameters' into gtheta (nworld x nparam, or NULL);
+// OST_STEP_NAN if singular
 OST_HD void osti_recordSolve(const ostAdjointLayout* A, char* lanes, int l, int i, int nworld,
-                             int j, double* gctrl) {
+                             int j, double* gctrl, double* gtheta) {
   ostAdjointLane al;
   ostu_adjointLane(&al, A, lanes, l);
   int ny = al.info[OST_ADJ_NY], nx = 2 * A->s.nv + A->s.na, nu = A->s.nu;
@@ -115,7 +117,7 @@ OST_HD void osti_recordSolve(const ostAdjointLayout* A, char* lanes, int l, int 
   }
   ostStepRec r;
   ostu_recordAt(&r, A, &al, j);
-  int ncol = ny + nx + nu;
+  int ncol = ny + nx + nu + A->nparam;
   osti_jacAssemble(al.G, ncol, ny, A->s.nv, A->s.na, nu, al.Rq, al.T);
   if (osti_adjointSolve(al.G, ny, nx, ncol, al.K, al.piv, al.w, al.g, al.gxi)) {
     al.info[OST_ADJ_FAILED] = OST_STEP_NAN;  // singular Jacobian
@@ -125,16 +127,19 @@ OST_HD void osti_recordSolve(const ostAdjointLayout* A, char* lanes, int l, int 
   for (int a = 0; gctrl && a < nu; a++) {
     gctrl[((size_t)*r.step * nworld + i) * nu + a] += al.gxi[nx + a];
   }
+  for (int p = 0; gtheta && p < A->nparam; p++) {
+    gtheta[(size_t)i * A->nparam + p] += al.gxi[nx + nu + p];
+  }
 }
 
 
 // phase 4: the cotangents of world i's start state into gq0, gu0 (nworld x nv each, or NULL);
-// a failed world gets NaN there and in all its gctrl entries, and its failure's bit in *status
-// (the world's outcome bits, or NULL): OST_STEP_NAN, or OST_STEP_OVERFLOW if a capacity was
-// exceeded
+// a failed world gets NaN there and in all its gctrl and gtheta entries, and its failure's bit
+// in *status (the world's outcome bits, or NULL): OST_STEP_NAN, or OST_STEP_OVERFLOW if a
+// capacity was exceeded
 OST_HD void osti_adjointFinish(const ostAdjointLayout* A, char* lanes, int l, int i, int nworld,
                                int T, const double* gq, const double* gu, double* gctrl,
-                               double* gq0, double* gu0, int* status) {
+                               double* gtheta, double* gq0, double* gu0, int* status) {
   ostAdjointLane al;
   ostu_adjointLane(&al, A, lanes, l);
   int nv = A->s.nv, nu = A->s.nu;
@@ -152,6 +157,9 @@ OST_HD void osti_adjointFinish(const ostAdjointLayout* A, char* lanes, int l, in
   }
   for (int t = 0; failed && gctrl && t < T; t++) {
     for (int a = 0; a < nu; a++) gctrl[((size_t)t * nworld + i) * nu + a] = NAN;
+  }
+  for (int p = 0; failed && gtheta && p < A->nparam; p++) {
+    gtheta[(size_t)i * A->nparam + p] = NAN;
   }
 }
 

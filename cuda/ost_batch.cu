@@ -58,25 +58,25 @@ __global__ void ost_adjointReplay_kernel(ostModel m, ostBatchLayout L, ostAdjoin
 
 __global__ void ost_adjointFinish_kernel(ostBatchLayout L, ostAdjointLayout A, char* lanes,
                                          char* worlds, int w0, int T, const double* gq,
-                                         const double* gu, double* gctrl, double* gq0,
-                                         double* gu0) {
+                                         const double* gu, double* gctrl, double* gtheta,
+                                         double* gq0, double* gu0) {
   int l = blockIdx.x * blockDim.x + threadIdx.x, i = w0 + l;
   if (l >= A.nlane || i >= L.nworld) {
     return;
   }
   ostBatchView v;
   ostu_batchView(&v, &L, worlds + (size_t)i * L.stride);
-  osti_adjointFinish(&A, lanes, l, i, L.nworld, T, gq, gu, gctrl, gq0, gu0, v.status);
+  osti_adjointFinish(&A, lanes, l, i, L.nworld, T, gq, gu, gctrl, gtheta, gq0, gu0, v.status);
 }
 
 
 __global__ void ost_recordSolve_kernel(ostAdjointLayout A, char* lanes, int w0, int nworld,
-                                       int j, double* gctrl) {
+                                       int j, double* gctrl, double* gtheta) {
   int l = blockIdx.x * blockDim.x + threadIdx.x, i = w0 + l;
   if (l >= A.nlane || i >= nworld) {
     return;
   }
-  osti_recordSolve(&A, lanes, l, i, nworld, j, gctrl);
+  osti_recordSolve(&A, lanes, l, i, nworld, j, gctrl, gtheta);
 }
 
 
@@ -231,9 +231,10 @@ extern "C" int ost_adjointReplay_gpu(const ostModel* m_dev, const ostBatchLayout
 
 
 extern "C" int ost_recordSolve_gpu(const ostAdjointLayout* A, char* lanes_dev, int w0,
-                                   int nworld, int j, double* gctrl_dev, char* err, int err_sz) {
+                                   int nworld, int j, double* gctrl_dev, double* gtheta_dev,
+                                   char* err, int err_sz) {
   ost_recordSolve_kernel<<<blocks(A->nlane), OST_BLOCK>>>(*A, lanes_dev, w0, nworld, j,
-                                                          gctrl_dev);
+                                                          gctrl_dev, gtheta_dev);
   OST_CUDA_CHECK(cudaGetLastError());
   return 0;
 }
@@ -242,11 +243,11 @@ extern "C" int ost_recordSolve_gpu(const ostAdjointLayout* A, char* lanes_dev, i
 extern "C" int ost_adjointFinish_gpu(const ostBatchLayout* L, const ostAdjointLayout* A,
                                      char* lanes_dev, char* worlds_dev, int w0, int T,
                                      const double* gq_dev, const double* gu_dev,
-                                     double* gctrl_dev, double* gq0_dev, double* gu0_dev,
-                                     char* err, int err_sz) {
+                                     double* gctrl_dev, double* gtheta_dev, double* gq0_dev,
+                                     double* gu0_dev, char* err, int err_sz) {
   ost_adjointFinish_kernel<<<blocks(A->nlane), OST_BLOCK>>>(*L, *A, lanes_dev, worlds_dev, w0, T,
-                                                            gq_dev, gu_dev, gctrl_dev, gq0_dev,
-                                                            gu0_dev);
+                                                            gq_dev, gu_dev, gctrl_dev, gtheta_dev,
+                                                            gq0_dev, gu0_dev);
   OST_CUDA_CHECK(cudaGetLastError());
   OST_CUDA_CHECK(cudaDeviceSynchronize());
   return 0;

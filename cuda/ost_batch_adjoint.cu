@@ -6,8 +6,8 @@
 // per world, so that a few thousand worlds still fill the GPU. The double half (replay,
 // checkpoints, records, the assembly and solve of phase 3c) is ost_batch.cu.
 // Invariant: a thread reads the shared dual model and writes only its lane (3b: its own dual
-// work and its units' columns of the lane's G, Rq and T); no parameters are seeded, so the model
-// is never written.
+// work and its units' columns of the lane's G, Rq and T); parameters are seeded in the work's
+// own copy of them (ostx_jacOwnParams), so the shared model is never written.
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>

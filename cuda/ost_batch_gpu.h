@@ -76,8 +76,8 @@ int ost_adjointReplay_gpu(const ostModel* m_dev, const ostBatchLayout* L,
                           const char* kept_dev, char* err, int err_sz);
 int ost_adjointFinish_gpu(const ostBatchLayout* L, const ostAdjointLayout* A, char* lanes_dev,
                           char* worlds_dev, int w0, int T, const double* gq_dev,
-                          const double* gu_dev, double* gctrl_dev, double* gq0_dev,
-                          double* gu0_dev, char* err, int err_sz);
+                          const double* gu_dev, double* gctrl_dev, double* gtheta_dev,
+                          double* gq0_dev, double* gu0_dev, char* err, int err_sz);
 
 // the dual-number model of the packed double model `model` (an ostModel) on the device, in one allocation
 // *dual_dev (the struct first, then its arrays)
@@ -98,9 +98,10 @@ int ost_adjointRecord_gpu(void* dual_dev, const ostAdjointLayout* A, char* lanes
                           const double* gu_dev, char* pool_dev, int pool_n, char* err,
                           int err_sz);
 
-// phase 3c (osti_recordSolve) for the same worlds and record
+// phase 3c (osti_recordSolve) for the same worlds and record (gtheta_dev: NULL without
+// parameter gradients)
 int ost_recordSolve_gpu(const ostAdjointLayout* A, char* lanes_dev, int w0, int nworld, int j,
-                        double* gctrl_dev, char* err, int err_sz);
+                        double* gctrl_dev, double* gtheta_dev, char* err, int err_sz);
 
 // free and total device memory (bytes)
 int ost_batchMemInfo_gpu(size_t* free_bytes, size_t* total_bytes);

@@ -33,6 +33,40 @@ int ost_nparam(const mjModel* m) {
 }
 
 
+void ost_paramFrictionMap(const mjModel* m, const ostModel* native, int* geom, mjtNum* weight) {
+  // friction of a dynamic pair is max(mu1, mu2), or the higher-priority geom's (MuJoCo's
+  // mixing); an explicit <pair> has its own coefficient, which no geom parameter moves
+  for (int p = 0; p < native->s.npair; p++) {
+    int g1 = native->pair_geom1[p], g2 = native->pair_geom2[p], expl = 0;
+    for (int i = 0; i < m->npair; i++) {
+      expl |= (m->pair_geom1[i] == g1 && m->pair_geom2[i] == g2)
+              || (m->pair_geom1[i] == g2 && m->pair_geom2[i] == g1);
+    }
+    mjtNum f1 = m->geom_friction[3 * g1], f2 = m->geom_friction[3 * g2];
+    int p1 = m->geom_priority[g1], p2 = m->geom_priority[g2];
+    geom[2 * p] = expl ? -1 : g1;
+    geom[2 * p + 1] = expl ? -1 : g2;
+    // the higher priority's coefficient, else the larger (ost_pack.c candidatePairs)
+    weight[2 * p] = p1 != p2 ? (p1 > p2) : (f1 > f2 ? 1 : (f1 < f2 ? 0 : 0.5));
+    weight[2 * p + 1] = 1 - weight[2 * p];
+  }
+}
+
+
+int ost_paramDifferentiable(const mjModel* m, int i) {
+  // MuJoCo reads biasprm only for an affine bias (a motor's is unused) and gainprm[0] as a gain
+  // only when fixed: no derivative elsewhere (a muscle's are its curves' range, not
+  // differentiated: core/README.md section 1)
+  int nu = m->nu, gain0 = ost_paramAddress(m, OST_PARAM_GAIN);
+  int bias1 = ost_paramAddress(m, OST_PARAM_BIASPOS), bias2 = ost_paramAddress(m, OST_PARAM_BIASVEL);
+  int act = i >= bias2 ? i - bias2 : i - bias1;
+  if (i >= bias1 && act < nu && m->actuator_biastype[act] != mjBIAS_AFFINE) {
+    return 0;
+  }
+  return !(i >= gain0 && i < gain0 + nu && m->actuator_gaintype[i - gain0] != mjGAIN_FIXED);
+}
+
+
 void ost_defaultGradOptions(ostGradOptions* go) {
   go->truncate = 0;
   go->params = 0;
@@ -138,23 +172,7 @@ static int adjointPrepare(ostContext* c, const mjModel* m) {
     return ost_fail(c, OST_ERR_MEMORY, "cannot allocate the adjoint's work space");
   }
   c->adj_model_block = c->native_block;
-
-  // friction of a dynamic pair is max(mu1, mu2), or the higher-priority geom's (MuJoCo's
-  // mixing); an explicit <pair> has its own coefficient, which no geom parameter moves
-  for (int p = 0; p < c->native.s.npair; p++) {
-    int g1 = c->native.pair_geom1[p], g2 = c->native.pair_geom2[p], expl = 0;
-    for (int i = 0; i < m->npair; i++) {
-      expl |= (m->pair_geom1[i] == g1 && m->pair_geom2[i] == g2)
-              || (m->pair_geom1[i] == g2 && m->pair_geom2[i] == g1);
-    }
-    mjtNum f1 = m->geom_friction[3 * g1], f2 = m->geom_friction[3 * g2];
-    int p1 = m->geom_priority[g1], p2 = m->geom_priority[g2];
-    c->adj_fric_geom[2 * p] = expl ? -1 : g1;
-    c->adj_fric_geom[2 * p + 1] = expl ? -1 : g2;
-    // the higher priority's coefficient, else the larger (ost_pack.c candidatePairs)
-    c->adj_fric_weight[2 * p] = p1 != p2 ? (p1 > p2) : (f1 > f2 ? 1 : (f1 < f2 ? 0 : 0.5));
-    c->adj_fric_weight[2 * p + 1] = 1 - c->adj_fric_weight[2 * p];
-  }
+  ost_paramFrictionMap(m, &c->native, c->adj_fric_geom, c->adj_fric_weight);
   return OST_OK;
 }
 
@@ -238,20 +256,10 @@ static int recordBackward(ostContext* c, const mjModel* m, const ostRecord* r,
   for (int i = 0; gctrl && i < nu; i++) {
     gctrl[i] += gxi[nx + i];
   }
-  // MuJoCo reads biasprm only for an affine bias (a motor's is unused) and gainprm[0] as a gain
-  // only when fixed: no derivative elsewhere (a muscle's are its curves' range, not
-  // differentiated: core/README.md section 1)
-  int gain0 = ost_paramAddress(m, OST_PARAM_GAIN);
-  int bias1 = ost_paramAddress(m, OST_PARAM_BIASPOS), bias2 = ost_paramAddress(m, OST_PARAM_BIASVEL);
   for (int i = 0; i < nparam; i++) {
-    int act = i >= bias2 ? i - bias2 : i - bias1;
-    if (i >= bias1 && act < nu && m->actuator_biastype[act] != mjBIAS_AFFINE) {
-      continue;
+    if (ost_paramDifferentiable(m, i)) {
+      gtheta[i] += gxi[nx + nu + i];
     }
-    if (i >= gain0 && i < gain0 + nu && m->actuator_gaintype[i - gain0] != mjGAIN_FIXED) {
-      continue;
-    }
-    gtheta[i] += gxi[nx + nu + i];
   }
   return OST_OK;
 }

@@ -121,6 +121,11 @@ ostBatch* ost_batchCreate(const mjModel* m, int nworld, const char* device, char
     ost_batchDelete(b);
     return NULL;
   }
+  if (ost_batchParamsPrepare(b, m)) {
+    snprintf(err, err_sz, "ost_batchCreate: out of memory");
+    ost_batchDelete(b);
+    return NULL;
+  }
   int nlane = cuda ? (nworld < OST_CUDA_LANES ? nworld : OST_CUDA_LANES) : b->nthread;
   ostu_batchLayout(&b->L, b->model.s, ost_rowCapacity(m), nworld, nlane);
   b->qpos0 = (ostNum*)malloc(sizeof(ostNum) * (m->nq > 0 ? m->nq : 1));
@@ -217,9 +222,13 @@ void ost_batchDelete(ostBatch* b) {
     ost_batchFree_gpu(b->model_dev_block);
     ost_batchFree_gpu(b->adj_dev_block);
     ost_batchFree_gpu(b->adj_pool);
+    ost_batchFree_gpu(b->fric_dev);
   }
 #endif
   ostd_workFree(b->adj_work);
+  free(b->param_diff);
+  free(b->fric_geom);
+  free(b->fric_weight);
   free(b->model_block);
   free(b->qpos0);
   free(b);

@@ -65,6 +65,13 @@ struct ostBatch_ {
   size_t          adj_bytes;      // their size
   char*           adj_pool;       // cuda: dual works of the column threads
   int             adj_pool_n;     // their count
+  int             nparam;         // entries of theta (ost_nparam)
+  int             param_adr[OST_PARAM_ADR]; // its groups' offsets (ost_paramAddress)
+  unsigned char*  param_diff;     // 1 where theta has a derivative (ost_paramDifferentiable)
+  int*            fric_geom;      // the friction map (ost_paramFrictionMap): geoms, then
+  mjtNum*         fric_weight;    // weights, 2 per candidate pair (host)
+  char*           fric_dev;       // cuda: both on the device (geoms, then weights at an
+                                  // 8-byte boundary)
   char            err[1000];      // last failure
 };
 
@@ -83,6 +90,7 @@ typedef struct cpuChunk_ {        // one thread's share: worlds [w0, w1) in lane
   const ostNum*         gq;
   const ostNum*         gu;
   ostNum*               gctrl;
+  ostNum*               gtheta;
   ostNum*               gq0;
   ostNum*               gu0;
 } cpuChunk;
@@ -97,6 +105,10 @@ void ost_batchFreeMem(const ostBatch* b, void* p);
 // make *p (host or device, as the batch) hold at least `bytes` zeroed bytes; a larger block is
 // kept as it is. *have: its size. Returns OST_OK or OST_ERR_MEMORY (then *p is NULL).
 int ost_batchGrow(ostBatch* b, char** p, size_t* have, size_t bytes);
+
+// the parameters' offsets, derivative mask and friction map of the batch's packed model
+// (ost_batch_backward.c); OST_OK or OST_ERR_MEMORY
+int ost_batchParamsPrepare(ostBatch* b, const mjModel* m);
 
 // fn on every world: nthread threads, contiguous chunks, thread t in lane t
 void ost_batchRunChunks(ostBatch* b, void* (*fn)(void*), cpuChunk proto);

@@ -273,6 +273,16 @@ int ost_recordSubstep(ostContext* c, const mjModel* m, const mjData* d, mjtNum h
 int ost_recordsBackward(ostContext* c, const mjModel* m, void* recs, size_t nbytes,
                         const ostGradOptions* go, mjtNum* g, mjtNum* gctrl, mjtNum* gtheta);
 
+// the friction map of the parameter group OST_PARAM_FRICTION on the packed model's candidate
+// pairs (ostdStep.pair_fric_geom, pair_fric_weight; 2 entries per pair): the geoms whose
+// coefficient a pair takes (-1: an explicit <pair>, which no geom parameter moves) and their
+// weights (MuJoCo's mixing: the higher priority's, else the larger; 1/2 each at a tie)
+void ost_paramFrictionMap(const mjModel* m, const ostModel* native, int* geom, mjtNum* weight);
+
+// 1 if theta entry i has a derivative: 0 for the bias parameters of an actuator whose bias is
+// not affine and the gain of one whose gain is not fixed (MuJoCo does not read them as such)
+int ost_paramDifferentiable(const mjModel* m, int i);
+
 // the adjoint's resources of a context (called when the context is freed)
 void ost_adjointFree(ostContext* c);
 

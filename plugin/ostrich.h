@@ -445,11 +445,20 @@ OSTAPI int ost_batchKeepCheckpoints(ostBatch* b, int every);
 // segment records more substeps (OST_OVERFLOW), whose Jacobian is singular (OST_NAN) or whose
 // rollout has a step that did not converge (OST_NOT_CONVERGED) or kept part of an initial
 // violation (OST_DEPENETRATED) gets NaN gradients and that bit: the implicit function theorem
-// holds only at a solved step. go->truncate is honoured; go->params is refused (no parameter
-// gradients for batches: use a tape).
+// holds only at a solved step. go->truncate is honoured; go->params needs
+// ost_batchBackwardParams (refused here, where there is no gtheta).
 OSTAPI int ost_batchBackward(ostBatch* b, const ostGradOptions* go, int checkpoint,
                              const mjtNum* gq, const mjtNum* gu, mjtNum* gctrl, mjtNum* gq0,
                              mjtNum* gu0);
+
+// ost_batchBackward, and with go->params the gradient of the loss with respect to each world's
+// physical parameters theta (ostParam, as ost_tapeBackward's) into gtheta (nworld x
+// ost_nparam(m), world-major; overwritten, NaN for a failed world). Every world is stepped with
+// the same model, so the batch's gradient with respect to a parameter shared by all worlds is
+// the sum of its rows. Same bits on cpu and cuda, and as a tape of the same world.
+OSTAPI int ost_batchBackwardParams(ostBatch* b, const ostGradOptions* go, int checkpoint,
+                                   const mjtNum* gq, const mjtNum* gu, mjtNum* gctrl,
+                                   mjtNum* gq0, mjtNum* gu0, mjtNum* gtheta);
 
 // Outcome bits of every world's last step (nworld ints, ostStatusBit). OST_NOT_CONVERGED and
 // OST_DEPENETRATED are warnings: the world stepped on.

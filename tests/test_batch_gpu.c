@@ -39,6 +39,7 @@ static double uniform(unsigned* seed, double lo, double hi) {
 typedef struct runOut_ {           // one device's rollout and gradients
   mjtNum *qpos, *qvel;            // T x nworld x nq, nv
   mjtNum *gctrl, *g0;             // T x nworld x nu; gq0 then gu0 (nworld x nv each)
+  mjtNum *gth;                    // nworld x nparam: the parameters' gradients
   int*    status;                 // after the backward pass
   double  fwd_s, bwd_s;           // seconds
 } runOut;
@@ -58,8 +59,11 @@ static int run(const mjModel* m, const char* device, int nworld, int T, int chec
   int rc = ost_batchKeepCheckpoints(b, keep ? checkpoint : 0) || ost_batchSetState(b, q0, NULL)
            || ost_batchRollout(b, T, ctrl, o->qpos, o->qvel);
   double t1 = now();
-  rc = rc || ost_batchBackward(b, NULL, checkpoint, gq, gu, o->gctrl, o->g0,
-                               o->g0 + (size_t)nworld * m->nv);
+  ostGradOptions go;
+  ost_defaultGradOptions(&go);
+  go.params = 1;
+  rc = rc || ost_batchBackwardParams(b, &go, checkpoint, gq, gu, o->gctrl, o->g0,
+                                     o->g0 + (size_t)nworld * m->nv, o->gth);
   o->fwd_s = t1 - t0;
   o->bwd_s = now() - t1;
   rc = rc || ost_batchStatus(b, o->status);
@@ -71,10 +75,10 @@ static int run(const mjModel* m, const char* device, int nworld, int T, int chec
 }
 
 
-static runOut allocOut(size_t nqs, size_t nvs, size_t ncs, size_t ng0, int nworld) {
+static runOut allocOut(size_t nqs, size_t nvs, size_t ncs, size_t ng0, size_t nth, int nworld) {
   runOut o = {malloc(sizeof(mjtNum) * nqs), malloc(sizeof(mjtNum) * nvs),
               malloc(sizeof(mjtNum) * (ncs + 1)), malloc(sizeof(mjtNum) * ng0),
-              malloc(sizeof(int) * nworld), 0, 0};
+              malloc(sizeof(mjtNum) * (nth + 1)), malloc(sizeof(int) * nworld), 0, 0};
   return o;
 }
 
@@ -84,6 +88,7 @@ static void freeOut(runOut* o) {
   free(o->qvel);
   free(o->gctrl);
   free(o->g0);
+  free(o->gth);
   free(o->status);
 }
 
@@ -154,15 +159,17 @@ static int runModel(const char* path, int nworld, int T, int nconmax, int checkp
   }
   size_t nqs = (size_t)T * nworld * nq, nvs = (size_t)T * nworld * nv;
   size_t ncs = (size_t)T * nworld * nu, ng0 = 2 * (size_t)nworld * nv;
-  runOut a = allocOut(nqs, nvs, ncs, ng0, nworld), c = allocOut(nqs, nvs, ncs, ng0, nworld);
+  size_t nth = (size_t)nworld * ost_nparam(m);
+  runOut a = allocOut(nqs, nvs, ncs, ng0, nth, nworld), c = allocOut(nqs, nvs, ncs, ng0, nth, nworld);
   int ok = !run(m, device, nworld, T, checkpoint, keep, q0, ctrl, gq, gu, &a)
            && !run(m, "cpu", nworld, T, checkpoint, 0, q0, ctrl, gq, gu, &c);
   int nstatus = 0, nfail = 0, nnan = 0, nover = 0;
-  double worst = 0, gworst = 0;
+  double worst = 0, gworst = 0, pworst = 0;
   for (size_t i = 0; ok && i < nqs; i++) worst = fmax(worst, fabs(a.qpos[i] - c.qpos[i]));
   for (size_t i = 0; ok && i < nvs; i++) worst = fmax(worst, fabs(a.qvel[i] - c.qvel[i]));
   if (ok) {
     gworst = fmax(gradDiff(a.gctrl, c.gctrl, ncs), gradDiff(a.g0, c.g0, ng0));
+    pworst = gradDiff(a.gth, c.gth, nth);
   }
   for (int w = 0; ok && w < nworld; w++) {
     nstatus += a.status[w] != c.status[w];
@@ -170,14 +177,15 @@ static int runModel(const char* path, int nworld, int T, int nconmax, int checkp
     nnan += (a.status[w] & OST_NAN) != 0;
     nover += (a.status[w] & OST_OVERFLOW) != 0;
   }
-  ok = ok && worst <= 1e-9 && gworst <= 1e-7 && nstatus == 0 && !isnan(worst);
+  ok = ok && worst <= 1e-9 && gworst <= 1e-7 && pworst <= 1e-7 && nstatus == 0 && !isnan(worst);
   printf("{\"model\": \"%s\", \"device\": \"%s\", \"worlds\": %d, \"steps\": %d, "
          "\"checkpoint\": %d, \"max_state_diff\": %.3g, \"max_grad_diff\": %.3g, "
+         "\"max_param_grad_diff\": %.3g, "
          "\"status_mismatch\": %d, \"failed_worlds\": %d, \"nan_worlds\": %d, "
          "\"overflow_worlds\": %d, \"%s_fwd_s\": %.4f, \"cpu_fwd_s\": %.4f, "
          "\"%s_bwd_s\": %.4f, \"cpu_bwd_s\": %.4f, \"%s_world_iters_per_s\": %.1f, "
          "\"cpu_world_iters_per_s\": %.1f, \"ok\": %s}\n",
-         path, device, nworld, T, checkpoint, worst, gworst, nstatus, nfail, nnan, nover, device,
+         path, device, nworld, T, checkpoint, worst, gworst, pworst, nstatus, nfail, nnan, nover, device,
          a.fwd_s, c.fwd_s, device, a.bwd_s, c.bwd_s, device, nworld / (a.fwd_s + a.bwd_s),
          nworld / (c.fwd_s + c.bwd_s), ok ? "true" : "false");
   free(q0);

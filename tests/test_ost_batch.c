@@ -273,11 +273,16 @@ END_TEST
 // the batch's backward pass (core/ost_batch_adjoint.h: replay from segment checkpoints) gives
 // the gradients of the plugin's tape (ost_tapeStep with the native provider, then
 // ost_tapeBackward) for every world: three robots climbing the box (splits, contact changes),
-// 30 steps, cotangents at every step; with no checkpoints and with segments of 4 and 7 steps
+// 30 steps, cotangents at every step; with no checkpoints and with segments of 4 and 7 steps;
+// the parameters' gradients (friction, masses, damping, servo gains) too
 START_TEST(test_batchBackwardEqualsTape) {
   ost_fixtureSetup();
   mjModel* m = ost_fixtureLoadModel("robot_box.xml");
-  int nw = 3, T = 30, nq = m->nq, nv = m->nv, nu = m->nu;
+  int nw = 3, T = 30, nq = m->nq, nv = m->nv, nu = m->nu, np = ost_nparam(m);
+  ostGradOptions go;
+  ost_defaultGradOptions(&go);
+  go.params = 1;
+  mjtNum *tth = calloc(nw * np, 8), *gth = calloc(nw * np, 8);
   mjtNum* q0 = calloc(nw * nq, sizeof(mjtNum));
   mjtNum* ctrl = calloc(T * nw * nu, sizeof(mjtNum));
   mjtNum *gq = calloc((T + 1) * nw * nv, 8), *gu = calloc((T + 1) * nw * nv, 8);
@@ -319,8 +324,8 @@ START_TEST(test_batchBackwardEqualsTape) {
       memcpy(tq + t * nv, gq + (t * nw + i) * nv, nv * sizeof(mjtNum));
       memcpy(tu + t * nv, gu + (t * nw + i) * nv, nv * sizeof(mjtNum));
     }
-    ck_assert_int_eq(ost_tapeBackward(tape, m, NULL, tq, tu, tc + i * T * nu, tq0 + i * nv,
-                                      tu0 + i * nv, NULL), OST_OK);
+    ck_assert_int_eq(ost_tapeBackward(tape, m, &go, tq, tu, tc + i * T * nu, tq0 + i * nv,
+                                      tu0 + i * nv, tth + i * np), OST_OK);
     printf("tape world %d: x %.3f m after %d steps\n", i, d->qpos[0], T);
     ck_assert_double_gt(d->qpos[0], 0.45);  // on the box's edge or over it
   }
@@ -340,7 +345,21 @@ START_TEST(test_batchBackwardEqualsTape) {
     if (c == 3) {  // ceil(30 / 4) = 8 copies of the worlds, counted in the batch's memory
       ck_assert_uint_gt(ost_batchBytes(b), bytes0);
     }
-    ck_assert_int_eq(ost_batchBackward(b, NULL, checkpoints[c], gq, gu, gctrl, gq0, gu0), OST_OK);
+    if (c < 5) {
+      ck_assert_int_eq(ost_batchBackward(b, NULL, checkpoints[c], gq, gu, gctrl, gq0, gu0),
+                       OST_OK);
+    } else {
+      ck_assert_int_eq(ost_batchBackwardParams(b, &go, checkpoints[c], gq, gu, gctrl, gq0, gu0,
+                                               gth), OST_OK);
+      double wth = 0, sth = 0;
+      for (int i = 0; i < nw * np; i++) {
+        wth = fmax(wth, fabs(gth[i] - tth[i]));
+        sth = fmax(sth, fabs(tth[i]));
+      }
+      printf("batch parameter gradients vs tape: max |diff| %.3g (largest %.3g)\n", wth, sth);
+      ck_assert_double_gt(sth, 0);
+      ck_assert_double_le(wth, 1e-9 * sth);  // the same regression baseline as below
+    }
     if (c == 1) {
       memcpy(gctrl4, gctrl, T * nw * nu * sizeof(mjtNum));
     }
@@ -372,7 +391,7 @@ START_TEST(test_batchBackwardEqualsTape) {
   ost_tapeDelete(tape);
   ost_deleteData(d);
   free(q0); free(ctrl); free(gq); free(gu); free(gctrl); free(gq0); free(gu0); free(gctrl4);
-  free(tq); free(tu); free(tc); free(tq0); free(tu0);
+  free(tq); free(tu); free(tc); free(tq0); free(tu0); free(tth); free(gth);
   mj_deleteModel(m);
 }
 END_TEST
@@ -433,10 +452,19 @@ START_TEST(test_batchBackwardRecordCapacity) {
     ck_assert_int_eq(ost_batchRollout(b, T, ctrl, NULL, NULL), OST_OK);
     ck_assert_int_eq(ost_batchStatus(b, &status), OST_OK);
     ck_assert_int_eq(status & OST_OVERFLOW, 0);
-    ck_assert_int_eq(ost_batchBackward(b, NULL, checkpoint, gq, NULL, gctrl, gq0, gu0), OST_OK);
+    ostGradOptions go;
+    ost_defaultGradOptions(&go);
+    go.params = 1;
+    mjtNum gth[64];
+    ck_assert_int_le(ost_nparam(m), 64);
+    ck_assert_int_eq(ost_batchBackwardParams(b, &go, checkpoint, gq, NULL, gctrl, gq0, gu0, gth),
+                     OST_OK);
     ck_assert_int_eq(ost_batchStatus(b, &status), OST_OK);
     printf("split every step, checkpoint %d: status %d, dL/dctrl[0] %.6g (tape %.6g)\n",
            checkpoint, status, gctrl[0], tc[0]);
+    for (int i = 0; i < ost_nparam(m); i++) {
+      ck_assert(checkpoint == 1 ? isfinite(gth[i]) : isnan(gth[i]));  // NaN for a failed world
+    }
     if (checkpoint == 1) {
       ck_assert_double_eq(maxDiff(gctrl, tc, T * nu), 0);
       ck_assert_double_eq(maxDiff(gq0, tq0, nv) + maxDiff(gu0, tu0, nv), 0);

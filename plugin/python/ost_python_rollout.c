@@ -257,13 +257,16 @@ OSTPY_API void ostpy_tangentToCoord(const ostpyPhysics* p, int n, const mjtNum* 
 }
 
 
-// ost_batchBackward with ostGradOptions built here (truncate; no parameters for batches).
+// ost_batchBackwardParams with ostGradOptions built here (truncate; parameters when gtheta is
+// given: nworld x ost_nparam, overwritten).
 OSTPY_API int ostpy_batchBackward(ostBatch* b, int truncate, int checkpoint, const mjtNum* gq,
-                                  const mjtNum* gu, mjtNum* gctrl, mjtNum* gq0, mjtNum* gu0) {
+                                  const mjtNum* gu, mjtNum* gctrl, mjtNum* gq0, mjtNum* gu0,
+                                  mjtNum* gtheta) {
   ostGradOptions go;
   ost_defaultGradOptions(&go);
   go.truncate = truncate;
-  return ost_batchBackward(b, &go, checkpoint, gq, gu, gctrl, gq0, gu0);
+  go.params = gtheta != NULL;
+  return ost_batchBackwardParams(b, &go, checkpoint, gq, gu, gctrl, gq0, gu0, gtheta);
 }
 
 

@@ -68,7 +68,7 @@ _SIGNATURES = {
     "ost_batchSetCtrl": (_i, [_p, _d]),
     "ost_batchStep": (_i, [_p]),
     "ost_batchRollout": (_i, [_p, _i, _d, _d, _d]),
-    "ostpy_batchBackward": (_i, [_p, _i, _i, _d, _d, _d, _d, _d]),
+    "ostpy_batchBackward": (_i, [_p, _i, _i, _d, _d, _d, _d, _d, _d]),
     "ost_batchKeepCheckpoints": (_i, [_p, _i]),
     "ost_batchStatus": (_i, [_p, _ip]),
     "ost_batchUnconverged": (_i, [_p, _ip]),

@@ -15,6 +15,7 @@ import numpy as np
 
 from . import _lib
 from .errors import NotConvergedError, NotConvergedWarning, OstrichError, check
+from .rollout import PARAM_GROUPS
 
 _lib_ = _lib.lib
 
@@ -138,14 +139,15 @@ class BatchRollout(tuple):
     return self
 
   def backward(self, cot_qpos=None, cot_qvel=None, tangent=False, truncate=False, checkpoint=0,
-               strict=True):
+               strict=True, params=False):
     """Gradients of a loss of every world's states: cot_qpos ((T + 1) x nworld x nq, or x nv
     with tangent=True), cot_qvel ((T + 1) x nworld x nv); None = zero. Returns BatchGradients:
     qpos (nworld x nq, or nv), qvel (nworld x nv), ctrl (T x nworld x nu), refused (nworld
-    bools) and bits (each world's outcome bits). A world whose rollout had an unconverged or
-    failed step gets NaN gradients: with strict (default) that raises NotConvergedError naming
-    the worlds; strict=False returns them with `refused` set. This must be the batch's last
-    rollout. No parameter gradients for batches (use ostrich.rollout)."""
+    bools) and bits (each world's outcome bits); with params=True also theta (nworld x
+    ost_nparam, each world's dL/dtheta in ostParam order, as ostrich.rollout's) and params (its
+    groups by name, nworld rows each). A world whose rollout had an unconverged or failed step
+    gets NaN gradients: with strict (default) that raises NotConvergedError naming the worlds;
+    strict=False returns them with `refused` set. This must be the batch's last rollout."""
     batch = self._batch
     p = batch.physics
     rows, nw, nq, nv, nu = len(self.qpos), batch.nworld, p.nq, p.nv, p.nu
@@ -169,9 +171,10 @@ class BatchRollout(tuple):
     gctrl = np.zeros((rows - 1, nw, nu))
     gq0 = np.zeros((nw, nv))
     gv0 = np.zeros((nw, nv))
+    theta = np.zeros((nw, _lib_.ost_nparam(p._model_ptr()))) if params else None
     status = _lib_.ostpy_batchBackward(batch._ptr, int(bool(truncate)), int(checkpoint),
                                        _lib.dptr(gq), _lib.dptr(gv), _lib.dptr(gctrl),
-                                       _lib.dptr(gq0), _lib.dptr(gv0))
+                                       _lib.dptr(gq0), _lib.dptr(gv0), _lib.dptr(theta))
     batch._check(status, "backward")
     if not tangent:
       coords = np.zeros((nw, nq))
@@ -188,12 +191,21 @@ class BatchRollout(tuple):
       raise NotConvergedError(f"backward: no gradient for {refused.sum()} of {nw} worlds, "
                               f"whose rollouts were not solved to tolerance ({why})",
                               _lib.ERR_NOT_CONVERGED)
-    return BatchGradients(gq0, gv0, gctrl, refused, bits)
+    return BatchGradients(gq0, gv0, gctrl, refused, bits, theta, p)
 
 
 class BatchGradients:
   """What BatchRollout.backward returns: qpos, qvel (start states, per world), ctrl (T x
-  nworld x nu), refused (worlds with NaN gradients) and bits (their outcome bits)."""
+  nworld x nu), refused (worlds with NaN gradients), bits (their outcome bits), theta (nworld x
+  ost_nparam; None without params) and params (theta's groups by name, as
+  ostrich.rollout.Gradients.params, with a leading world axis)."""
 
-  def __init__(self, qpos, qvel, ctrl, refused, bits):
+  def __init__(self, qpos, qvel, ctrl, refused, bits, theta=None, physics=None):
     self.qpos, self.qvel, self.ctrl, self.refused, self.bits = qpos, qvel, ctrl, refused, bits
+    self.theta = theta
+    self.params = {}
+    if theta is not None:
+      model = physics._model_ptr()
+      for g, group in enumerate(PARAM_GROUPS):
+        a, b = _lib_.ost_paramAddress(model, g), _lib_.ost_paramAddress(model, g + 1)
+        self.params[group] = theta[:, a:b]

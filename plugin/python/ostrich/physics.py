@@ -234,11 +234,17 @@ class Physics:
     return {n: int(v) if n in ints else float(v) for n, v in zip(self._option_names, out)}
 
   def set_options(self, **options):
-    """Change Ostrich's options for the following steps, e.g. set_options(newton_iter=8)."""
+    """Change Ostrich's options for the following steps, e.g. set_options(newton_iter=8);
+    geometry takes "mujoco" or "native" (or ostOptions' number, 0 or 1)."""
     current = self.options
     for name, value in options.items():
       if name not in current:
         raise KeyError(f"no Ostrich option {name!r}; options: {', '.join(current)}")
+      if name == "geometry" and isinstance(value, str):
+        providers = {"mujoco": 0, "native": 1}  # OST_GEOMETRY_MUJOCO, OST_GEOMETRY_NATIVE
+        if value not in providers:
+          raise ValueError(f"geometry: {value!r}, expected 'mujoco' or 'native'")
+        value = providers[value]
       current[name] = value
     values = np.array([float(current[n]) for n in self._option_names])
     status = _lib_.ostpy_setOptions(self._handle.ptr, _lib.dptr(values))

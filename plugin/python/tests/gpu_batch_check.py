@@ -1,5 +1,5 @@
 """CUDA batches from Python equal CPU batches bit for bit: states, unconverged flags and
-gradients, on the cart-pole and the robot over the box (contacts). A script, not a pytest module
+gradients (parameters' included), on the cart-pole and the robot over the box (contacts). A script, not a pytest module
 (the GPU machine has no pytest): ctest runs it as test_python_gpu (label gpu) in CUDA builds;
 by hand: PYTHONPATH=BUILD/python OSTRICH_MODEL_DIR=mjcf_models python3 THIS [NWORLD]. Exit
 status 0 when every array is equal, 1 otherwise (each difference printed)."""
@@ -28,9 +28,10 @@ def check(name, nworld, steps, scale, seed=0):
     crng = np.random.default_rng(seed + 1)
     cot_qpos = crng.uniform(-1, 1, traj.qpos.shape)
     cot_qvel = crng.uniform(-1, 1, traj.qvel.shape)
-    grads = traj.backward(cot_qpos, cot_qvel, strict=False)
-    out[device] = (traj.qpos, traj.qvel, traj.unconverged, grads.qpos, grads.qvel, grads.ctrl)
-  labels = ("qpos", "qvel", "unconverged", "grad qpos0", "grad qvel0", "grad ctrl")
+    grads = traj.backward(cot_qpos, cot_qvel, strict=False, params=True)
+    out[device] = (traj.qpos, traj.qvel, traj.unconverged, grads.qpos, grads.qvel, grads.ctrl,
+                   grads.theta)
+  labels = ("qpos", "qvel", "unconverged", "grad qpos0", "grad qvel0", "grad ctrl", "grad theta")
   diffs = []
   for label, a, b in zip(labels, out["cpu:1"], out["cuda"]):
     a, b = np.asarray(a, float), np.asarray(b, float)

@@ -93,3 +93,34 @@ def test_batch_argument_errors():
   assert traj.qpos.shape == (6, 2, 2)
   with pytest.raises(ValueError, match="cot_qvel: shape"):
     traj.backward(cot_qvel=np.zeros((6, 2)))
+
+
+def test_batch_parameter_gradients_equal_single():
+  # the robot on the box: contacts with friction, masses, damping and servo gains; each world's
+  # dL/dtheta equals its single rollout's (same native geometry, which the batch uses), which
+  # test_rollout.py checks against central differences
+  physics = ostrich.Physics.from_xml_path(model_path("robot_box.xml"))
+  physics.set_options(geometry="native")
+  nworld, steps = 2, 6
+  qpos0 = np.tile(physics.data.qpos, (nworld, 1))
+  qpos0[:, 0] = [-0.2, -0.35]
+  qvel0 = np.zeros((nworld, physics.nv))
+  actions = np.full((steps, nworld, physics.nu), 3.0)
+  traj = ostrich.Batch(physics, nworld, "cpu:2").rollout(actions, qpos0, qvel0)
+  rng = np.random.default_rng(3)
+  cot_qpos = rng.uniform(-1, 1, traj.qpos.shape)
+  cot_qvel = rng.uniform(-1, 1, traj.qvel.shape)
+  grads = traj.backward(cot_qpos, cot_qvel, params=True)
+  plain = traj.backward(cot_qpos, cot_qvel)
+  assert plain.theta is None and grads.theta.shape == (nworld, len(ostrich.get_theta(physics)))
+  np.testing.assert_array_equal(grads.ctrl, plain.ctrl)
+  for w in range(nworld):
+    one = ostrich.rollout(physics, actions[:, w], qpos0[w], qvel0[w])
+    g = one.backward(cot_qpos[:, w], cot_qvel[:, w], params=True)
+    assert abs(g.theta).max() > 0
+    # the batch and the single rollout step the same physics along different code paths (their
+    # states agree to rounding, 1e-13); 1e-9 of the largest entry bounds what rounding explains
+    np.testing.assert_allclose(grads.theta[w], g.theta, rtol=0, atol=1e-9 * abs(g.theta).max())
+    for group, value in g.params.items():
+      np.testing.assert_array_equal(grads.params[group][w], grads.theta[w][
+          ostrich.param_slices(physics)[group]])
