@@ -235,6 +235,7 @@ OST_HD int osti_geoDirection(ostWorld* w, const ostSolverOptions* so,
   }
   osti_geoRows(w, gw->rows_s, gw->J_s, gw->nnz_s, gw->ind_s, &ns, 0);
   for (int i = 0; i < ns; i++) gw->dl[i] = w->lambda[i];
+  if (w->env) w->env->active = 1;
   gw->evals++;
   int status = geom(ctx, w->qvel);  // the base rows in contact frames, multipliers matched on
   osti_geoRows(w, gw->rows_f, gw->J_f, gw->nnz_f, gw->ind_f, &nf, 0);
@@ -329,6 +330,7 @@ OST_HD int osti_geoDirection(ostWorld* w, const ostSolverOptions* so,
     gw->evals++;
     osti_geoRows(w, gw->rows_s, gw->J_s, gw->nnz_s, gw->ind_s, &ns, 1);
   }
+  if (w->env) w->env->active = 0;
   return it;
 }
 

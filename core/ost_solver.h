@@ -140,6 +140,7 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNu
   X(unsigned char, used,          nrow_max, 1)   /* matching scratch                       */
 
 struct ostGeoWork_;
+struct ostEnvWork_;
 
 typedef struct ostWorld_ {        // one world: sizes and pointers into one allocation
   int    nv;                      // degrees of freedom
@@ -161,6 +162,10 @@ typedef struct ostWorld_ {        // one world: sizes and pointers into one allo
   ostNum* yrow;                   // host cache of each row's half-solve L^-T J_i' on its pattern
                                   // (nrow_max x ncol; osti_rowDiag writes it, osti_directSet
                                   // reads it); NULL: none (GPU, batches, the adjoint)
+  struct ostEnvWork_* env;        // host envelope solves of large islands (ost_envelope.h);
+                                  // NULL: none (they need yrow)
+  int    op_version;              // counts osti_evaluate calls: the Schur operator (rows, J,
+                                  // c) a kept envelope factor belongs to
 #define X(type, name, r, c) type* name;
   OST_WORLD_ARRAYS(X)
 #undef X
@@ -219,6 +224,8 @@ OST_HD void ostu_worldInitFor(ostWorld* w, void* buf, int nv, int ncol, int nrow
   w->dof_parent = NULL;
   w->geo = NULL;
   w->yrow = NULL;
+  w->env = NULL;
+  w->op_version = 0;
 #define X(type, name, r, c)                                         \
   w->name = (size_t)(r) * (size_t)(c) != 0 ? (type*)p : NULL;       \
   p += (((size_t)(r) * (c) * sizeof(type) + 63) / 64) * 64;
@@ -702,6 +709,7 @@ OST_HD ostNum osti_evaluate(ostWorld* w, const ostSolverOptions* opt) {
   int nv = w->nv, nrow = w->nrow;
   ostNum h = w->h;
   ostNum* t = w->tmp;
+  w->op_version++;  // a new Schur operator: a kept envelope factor is stale
 
   // Mt^-1 r_dyn = (u - u-) - h Mt^-1 (f + J' lambda)                              (eq. 9)
   osti_mulJT(w, t, w->lambda);
@@ -1235,8 +1243,14 @@ OST_HD int osti_directSet(ostWorld* w, const ostRowSet* set, ostNum* x, const os
 #endif
 
 
-// A x = b on a set: directly when it is small enough (osti_directSet), else by GMRES where a
-// sliding coupling makes A non-symmetric and by PCR otherwise; returns the iterations used
+#define OSTRICH_CORE_OST_SOLVER_H_INSIDE
+#include "ost_envelope.h"
+#undef OSTRICH_CORE_OST_SOLVER_H_INSIDE
+
+
+// A x = b on a set: directly when it is small enough (osti_directSet), or on the host when its
+// envelope factor is cheap enough (osti_envelopeSet), else by GMRES where a sliding coupling
+// makes A non-symmetric and by PCR otherwise; returns the iterations used
 OST_HD int osti_schurSolveSet(ostWorld* w, const ostRowSet* set, ostNum* x, const ostNum* b,
                               const ostSolverOptions* opt) {
 #ifndef OST_NUM_TYPE
@@ -1247,9 +1261,31 @@ OST_HD int osti_schurSolveSet(ostWorld* w, const ostRowSet* set, ostNum* x, cons
     }
   }
 #endif
-  return osti_hasSlidingCouplingSet(w, set)
-             ? osti_gmresSet(w, set, x, b, opt->pcr_iter, opt->pcr_tol)
-             : osti_pcrSet(w, set, x, b, opt->pcr_iter, opt->pcr_tol);
+#if OST_ROW_CACHE
+  int large = set->n > OST_NDENSE(w->nrow_max);
+  if (large && osti_envelopeSet(w, set, x, b, 0)) {
+    return 1;
+  }
+#endif
+  int it = osti_hasSlidingCouplingSet(w, set)
+               ? osti_gmresSet(w, set, x, b, opt->pcr_iter, opt->pcr_tol)
+               : osti_pcrSet(w, set, x, b, opt->pcr_iter, opt->pcr_tol);
+#if OST_ROW_CACHE
+  if (large && it >= opt->pcr_iter && w->env) {
+    // the Krylov solve ran out of budget: its true relative residual |A x - b| / |b| decides
+    ostNum* r = w->pcr + (size_t)w->nrow_max;
+    osti_newtonApplySet(w, set, r, x);
+    ostNum rr = 0, bb = 0;
+    for (int l = 0; l < set->n; l++) {
+      rr += (r[l] - b[l]) * (r[l] - b[l]);
+      bb += b[l] * b[l];
+    }
+    if (rr > OST_ENV_FALLBACK * OST_ENV_FALLBACK * bb && osti_envelopeSet(w, set, x, b, 1)) {
+      return it + 1;
+    }
+  }
+#endif
+  return it;
 }
 
 

@@ -35,6 +35,7 @@ static void freeContext(ostContext* c) {
   free(c->jac);
   free(c->world_buf);
   free(c->geo_buf);
+  free(c->env_buf);
   free(c->native_block);
   free(c->corepairs_block);
   free(c->hfield_data);
@@ -132,17 +133,24 @@ int ost_growCapacity(ostContext* c, int ncon, int njmax) {
   }
   memset(buf, 0, sz);
   size_t gsz = ostu_geoSize(m->nv, ncol, nrow_max);
+  size_t esz = ostu_envSize(m->nv, ncol, nrow_max);
   void* gbuf = aligned_alloc(64, (gsz + 63) / 64 * 64);
-  if (!gbuf) {
+  void* ebuf = aligned_alloc(64, (esz + 63) / 64 * 64 + 64);
+  if (!gbuf || !ebuf) {
     free(buf);
+    free(gbuf);
+    free(ebuf);
     return OST_ERR_MEMORY;
   }
   free(c->world_buf);
   free(c->geo_buf);
+  free(c->env_buf);
   c->world_buf = buf;
   c->geo_buf = gbuf;
+  c->env_buf = ebuf;
   ostu_worldInit(&c->world, c->world_buf, m->nv, ncol, nrow_max, 0);
   ostu_geoInit(&c->geo, c->geo_buf, m->nv, ncol, nrow_max, 0);
+  ostu_envInit(&c->env, c->env_buf, m->nv, ncol, nrow_max);
   c->ncon_cap = ncon;
   c->njmax_cap = njmax;
   c->warm_valid = 0;

@@ -82,6 +82,7 @@ typedef struct ostContext_ {
                                   // copy of the iterates' stages with it)
   long           publish_copies;  // publications that copied the iterates' stages (tests)
   int            no_row_cache;    // 1: steps without the rows' half-solve cache (tests)
+  int            no_envelope;     // 1: steps without the envelope solves of large islands (tests)
   int            step1_synced;    // 1 if the last ost_step1 compared the model (and reused)
   mjtNum*        jac;             // contact Jacobian scratch                     (12 x nv)
   int            ncon_cap;        // contacts the iterates have room for: m->nconmax, doubled
@@ -96,6 +97,8 @@ typedef struct ostContext_ {
   void*          world_buf;       // the core world's single allocation
   void*          geo_buf;         // its geometric Newton arrays' allocation
   ostGeoWork     geo;             // those arrays (core/ost_geometric.h)
+  void*          env_buf;         // its envelope solves' arrays' allocation
+  ostEnvWork     env;             // those arrays (core/ost_envelope.h)
   ostModel       native;          // native provider: packed model (geometry option 1)
   void*          native_block;    // its single allocation
   int            native_dirty;    // 1 if the native packing must be rebuilt
