@@ -1272,13 +1272,16 @@ OST_HD int osti_schurSolveSet(ostWorld* w, const ostRowSet* set, ostNum* x, cons
                : osti_pcrSet(w, set, x, b, opt->pcr_iter, opt->pcr_tol);
 #if OST_ROW_CACHE
   if (large && it >= opt->pcr_iter && w->env) {
-    // the Krylov solve ran out of budget: its true relative residual |A x - b| / |b| decides
+    // the Krylov solve ran out of budget: its relative residual |A x - b| / |b| in the Jacobi
+    // preconditioner's norm (that of PCR) decides whether it failed outright
     ostNum* r = w->pcr + (size_t)w->nrow_max;
     osti_newtonApplySet(w, set, r, x);
     ostNum rr = 0, bb = 0;
     for (int l = 0; l < set->n; l++) {
-      rr += (r[l] - b[l]) * (r[l] - b[l]);
-      bb += b[l] * b[l];
+      int i = OST_SET_ROW(set, l);
+      ostNum p = 1 / (w->diag[i] + w->c[i] / w->h);
+      rr += (r[l] - b[l]) * (r[l] - b[l]) * p;
+      bb += b[l] * b[l] * p;
     }
     if (rr > OST_ENV_FALLBACK * OST_ENV_FALLBACK * bb && osti_envelopeSet(w, set, x, b, 1)) {
       return it + 1;
