@@ -232,23 +232,24 @@ OST_HD size_t osti_envOrder(const ostWorld* w, ostEnvWork* e, const ostRowSet* s
 }
 
 
-// L L' = A on the set in the envelope order (osti_envOrder made it): A_ab = y_l . y_m over the
-// dofs two rows share (y_l scattered as in osti_directAssemble, so each entry sums the shared
-// columns in ascending order), plus c / h on the diagonal; then the skyline Cholesky, row by row,
-//   L_ab = (A_ab - sum_k L_ak L_bk) / L_bb,   k from max(first_a, first_b) to b - 1,
-//   L_aa = sqrt(A_aa - sum_k L_ak^2),          k from first_a to a - 1.
-// Returns 0, or 1 if a pivot is not positive (A only semidefinite: PCR takes the set).
-OST_HD int osti_envFactor(const ostWorld* w, ostEnvWork* e, const ostRowSet* set) {
+// S A S on the set in the envelope order (osti_envOrder made it) into the factor's storage:
+// A_ab = y_l . y_m over the dofs two rows share (y_l scattered as in osti_directAssemble, so each
+// entry sums the shared columns in ascending order), plus c / h on the diagonal, S = e->s. Row a
+// of the lower triangle at e->L + e->adr[a] - first_a; with lu, also column a of the upper
+// triangle (diagonal included) at the same place after e->adr[n] doubles, else the diagonal in L
+OST_HD void osti_envAssemble(const ostWorld* w, ostEnvWork* e, const ostRowSet* set, int lu) {
   int n = set->n, ncol = w->ncol;
   ostNum* yd = e->yd;
+  ostNum* U = lu ? e->L + e->adr[n] : e->L;
   for (int c = 0; c < w->nv; c++) yd[c] = 0;
-  for (size_t q = 0; q < e->adr[n]; q++) e->L[q] = 0;
+  for (size_t q = 0; q < (lu ? 2 : 1) * e->adr[n]; q++) e->L[q] = 0;
   for (int l = 0; l < n; l++) e->mark[l] = 0;
   for (int a = 0; a < n; a++) {
     int l = e->perm[a], i = OST_SET_ROW(set, l);
     const int* il = w->Jind + (size_t)i * ncol;
     const ostNum* Yl = e->Y + (size_t)l * ncol;
-    ostNum* La = e->L + e->adr[a] - e->first[a];  // La[b]: entry (a, b), b in [first_a, a]
+    ostNum* La = e->L + e->adr[a] - e->first[a];
+    ostNum* Ua = U + e->adr[a] - e->first[a];
     for (int k = 0; k < w->Jnnz[i]; k++) yd[il[k]] = Yl[k];
     int cnt = osti_envNeighbours(w, e, set, l, e->nb);
     for (int q = 0; q < cnt; q++) {
@@ -258,10 +259,23 @@ OST_HD int osti_envFactor(const ostWorld* w, ostEnvWork* e, const ostRowSet* set
       const ostNum* Ym = e->Y + (size_t)m * ncol;
       ostNum s = 0;
       for (int k = 0; k < w->Jnnz[j]; k++) s += Ym[k] * yd[jm[k]];
-      La[b] = s * e->s[a] * e->s[b];
+      La[b] = Ua[b] = s * e->s[a] * e->s[b];
     }
     for (int k = 0; k < w->Jnnz[i]; k++) yd[il[k]] = 0;
-    La[a] += w->c[i] / w->h * e->s[a] * e->s[a];
+    Ua[a] += w->c[i] / w->h * e->s[a] * e->s[a];
+  }
+}
+
+
+// L L' = S A S (osti_envAssemble) by the skyline Cholesky, row by row,
+//   L_ab = (A_ab - sum_k L_ak L_bk) / L_bb,   k from max(first_a, first_b) to b - 1,
+//   L_aa = sqrt(A_aa - sum_k L_ak^2),          k from first_a to a - 1.
+// Returns 0, or 1 if a pivot is not positive (A only semidefinite: PCR takes the set).
+OST_HD int osti_envFactor(const ostWorld* w, ostEnvWork* e, const ostRowSet* set) {
+  int n = set->n;
+  osti_envAssemble(w, e, set, 0);
+  for (int a = 0; a < n; a++) {
+    ostNum* La = e->L + e->adr[a] - e->first[a];  // La[b]: entry (a, b), b in [first_a, a]
     // row a of the factor from the rows above it
     for (int b = e->first[a]; b < a; b++) {
       const ostNum* Lb = e->L + e->adr[b] - e->first[b];
@@ -290,32 +304,9 @@ OST_HD int osti_envFactor(const ostWorld* w, ostEnvWork* e, const ostRowSet* set
 // non-symmetric: those are fixed rows, whose diagonal c / h ~ 1e12 k_f dominates them; a pivot
 // below 1e-13 of its row's diagonal still fails the factor (GMRES takes the set).
 OST_HD int osti_envFactorLU(const ostWorld* w, ostEnvWork* e, const ostRowSet* set) {
-  int n = set->n, ncol = w->ncol;
-  ostNum* yd = e->yd;
+  int n = set->n;
   ostNum* U = e->L + e->adr[n];
-  for (int c = 0; c < w->nv; c++) yd[c] = 0;
-  for (size_t q = 0; q < 2 * e->adr[n]; q++) e->L[q] = 0;
-  for (int l = 0; l < n; l++) e->mark[l] = 0;
-  for (int a = 0; a < n; a++) {  // A's symmetric part: row a of L's storage, column a of U's
-    int l = e->perm[a], i = OST_SET_ROW(set, l);
-    const int* il = w->Jind + (size_t)i * ncol;
-    const ostNum* Yl = e->Y + (size_t)l * ncol;
-    ostNum* La = e->L + e->adr[a] - e->first[a];
-    ostNum* Ua = U + e->adr[a] - e->first[a];
-    for (int k = 0; k < w->Jnnz[i]; k++) yd[il[k]] = Yl[k];
-    int cnt = osti_envNeighbours(w, e, set, l, e->nb);
-    for (int q = 0; q < cnt; q++) {
-      int m = e->nb[q], b = e->order[m], j = OST_SET_ROW(set, m);
-      if (b > a) continue;
-      const int* jm = w->Jind + (size_t)j * ncol;
-      const ostNum* Ym = e->Y + (size_t)m * ncol;
-      ostNum s = 0;
-      for (int k = 0; k < w->Jnnz[j]; k++) s += Ym[k] * yd[jm[k]];
-      La[b] = Ua[b] = s * e->s[a] * e->s[b];
-    }
-    for (int k = 0; k < w->Jnnz[i]; k++) yd[il[k]] = 0;
-    Ua[a] += w->c[i] / w->h * e->s[a] * e->s[a];
-  }
+  osti_envAssemble(w, e, set, 1);
   for (int l = 0; l + 1 < n; l++) {  // the sliding couplings: entry (l + 1, l) of the set
     int i = OST_SET_ROW(set, l);
     if (!osti_slidingCoupled(w, i)) continue;
