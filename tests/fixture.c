@@ -2,6 +2,7 @@
 #include "fixture.h"
 
 #include "ostrich.h"
+#include "ost_solver.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -188,4 +189,27 @@ void ost_fixtureTransitionCheck(const mjModel* m, mjData* d, const char* label, 
   printf("%s (nx = %d): max |A - FD| %.2g, max |B - FD| %.2g, max |entry| %.3g\n", label, nx,
          *worst_a, *worst_b, *scale);
   free(fd);
+}
+
+
+void ost_fixtureContactRows(struct ostWorld_* w, int ncon, double h, int sliding) {
+  for (int k = 0; k < ncon; k++) {
+    int i = 3 * k, slide = sliding && k % 3 == 0;
+    w->rows[i] = (ostRow){0};
+    w->rows[i].type = OST_ROW_CONTACT;
+    w->rows[i].normal = -1;
+    w->rows[i].mu = 0.8;
+    for (int f = 1; f <= 2; f++) {
+      w->rows[i + f] = (ostRow){0};
+      w->rows[i + f].type = OST_ROW_FRICTION;
+      w->rows[i + f].normal = i;
+    }
+    w->lambda[i] = 10;
+    w->W[i] = slide;
+    for (int r = 0; r < 3; r++) {
+      osti_rowDiag(w, i + r);
+      w->c[i + r] = 0.5 * h * w->diag[i + r];
+    }
+    if (slide) w->c[i + 1] = 1e12 * h * w->diag[i + 1];  // force along the slip fixed
+  }
 }

@@ -49,4 +49,11 @@ void ost_fixtureTransitionCheck(const mjModel* m, mjData* d, const char* label, 
 // run a suite and return the process exit status
 int ost_fixtureRun(Suite* s);
 
+// rows 0 .. 3 ncon - 1 of a world (J already stored, ost_solver.h's ostWorld) as ncon contacts of
+// mu = 0.8 with two friction rows each, normal force 10, compliance h diag / 2; with sliding,
+// every third one slides: its row along the slip fixed (c ~ 1e12 k_f). Each row's diagonal is
+// made by osti_rowDiag (which fills the world's row cache when it has one)
+struct ostWorld_;
+void ost_fixtureContactRows(struct ostWorld_* w, int ncon, double h, int sliding);
+
 #endif  // OSTRICH_TESTS_FIXTURE_H_

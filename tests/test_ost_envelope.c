@@ -60,25 +60,7 @@ static void makeWorld(envWorld* ew, int shared, int sliding) {
     }
     ck_assert_int_eq(osti_rowStore(w, 3 * k, 3), 0);
   }
-  for (int k = 0; k < NCON; k++) {
-    int i = 3 * k, slide = sliding && k % 3 == 0;
-    w->rows[i] = (ostRow){0};
-    w->rows[i].type = OST_ROW_CONTACT;
-    w->rows[i].normal = -1;
-    w->rows[i].mu = 0.8;
-    for (int f = 1; f <= 2; f++) {
-      w->rows[i + f] = (ostRow){0};
-      w->rows[i + f].type = OST_ROW_FRICTION;
-      w->rows[i + f].normal = i;
-    }
-    w->lambda[i] = 10;
-    w->W[i] = slide;
-    for (int r = 0; r < 3; r++) {
-      osti_rowDiag(w, i + r);  // fills the row cache, as an evaluation does
-      w->c[i + r] = 0.5 * h * w->diag[i + r];
-    }
-    if (slide) w->c[i + 1] = 1e12 * h * w->diag[i + 1];
-  }
+  ost_fixtureContactRows(w, NCON, h, sliding);  // fills the row cache, as an evaluation does
 }
 
 

@@ -32,30 +32,6 @@ static void setRows(ostWorld* w, const double* J, int n) {
   }
 }
 
-// rows 0 .. 3 ncon - 1 of w (J already stored) as ncon contacts of mu = 0.8 with two friction
-// rows each, normal force 10, every third one sliding: its row along the slip fixed (c ~ 1e12
-// k_f), the others with compliance h diag / 2
-static void slidingContacts(ostWorld* w, int ncon, double h) {
-  for (int k = 0; k < ncon; k++) {
-    int i = 3 * k, sliding = k % 3 == 0;
-    w->rows[i] = (ostRow){0};
-    w->rows[i].type = OST_ROW_CONTACT;
-    w->rows[i].normal = -1;
-    w->rows[i].mu = 0.8;
-    for (int f = 1; f <= 2; f++) {
-      w->rows[i + f] = (ostRow){0};
-      w->rows[i + f].type = OST_ROW_FRICTION;
-      w->rows[i + f].normal = i;
-    }
-    w->lambda[i] = 10;
-    w->W[i] = sliding;
-    for (int r = 0; r < 3; r++) {
-      osti_rowDiag(w, i + r);
-      w->c[i + r] = 0.5 * h * w->diag[i + r];
-    }
-    if (sliding) w->c[i + 1] = 1e12 * h * w->diag[i + 1];  // force along the slip fixed
-  }
-}
 
 // 1-dof mass m falling onto a floor 1 cm below with speed v: backward Euler with a hard
 // contact gives u+ = gap / h (it lands exactly) and lambda = m (u+ - u-) / h + m g
@@ -168,7 +144,7 @@ START_TEST(test_gmresSliding) {
     Jd[i] = (double)(seed >> 8) / (1 << 24) - 0.5;
   }
   setRows(&w, Jd, n);
-  slidingContacts(&w, ncon, h);
+  ost_fixtureContactRows(&w, ncon, h, 1);
   double b[n], x[n], y[n], A[n * n], e[n], xd[n];
   int piv[n];
   for (int i = 0; i < n; i++) b[i] = sin(1.0 + i) * (w.c[i] > 1 ? 1e12 : 1);
@@ -223,7 +199,7 @@ START_TEST(test_directMatchesGmres) {
                                                            : 0;
   }
   setRows(&w, Jd, n);
-  slidingContacts(&w, ncon, h);
+  ost_fixtureContactRows(&w, ncon, h, 1);
   double b[n], x[n], xd[n];
   for (int i = 0; i < n; i++) b[i] = sin(1.0 + i) * (w.c[i] > 1 ? 1e12 : 1);
   osti_gmres(&w, x, b, 400, 1e-14);
