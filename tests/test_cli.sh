@@ -371,6 +371,15 @@ expect_rc 0 "gradcheck pendulum_chain: adjoint equals central differences"
 expect_py "gradcheck pendulum_chain: ok, every group below 1e-6, 16 parameters compared" \
   'j["ok"] is True and max(j["qpos"], j["qvel"], j["ctrl"], j["params"]) < 1e-6 and
    j["n_params"] == 16 and j["params_nonzero"] > 0'
+# the resting box at default settings (2 ms, 10 steps, the default budget and difference step):
+# every step converges, so the finite differences are of solved rollouts, and the mass group
+# edits m->body_mass at run time on a free ("simple") body. Below gradcheck's own --tol 1e-3
+# (central differences of contact rollouts, round-off over eps = 1e-4)
+run gradcheck "$BOX"
+expect_rc 0 "gradcheck box_plane at default settings"
+expect_py "gradcheck box_plane: ok at the default tolerance, every group compared" \
+  'j["ok"] is True and j["tol"] == 1e-3 and max(j["qpos"], j["qvel"], j["params"]) < 1e-3
+   and j["param_groups"]["mass"] < 1e-3 and j["params_nonzero"] > 0'
 run gradcheck "$MODELS/arm_position_servo.xml" --ctrl 0.1,0.2,0.3
 expect_rc 0 "gradcheck arm_position_servo (h = 0.1 s, ctrl and servo gains)"
 expect_py "gradcheck arm_position_servo: ok, 30 controls compared" \

@@ -315,6 +315,27 @@ START_TEST(test_immobileContacts) {
 END_TEST
 
 
+// a free box (MuJoCo's "simple" body, whose qM MuJoCo fills from dof_M0, set at load time)
+// sliding on the floor with dof damping, so that its deceleration b v / m depends on its mass:
+// the finite differences edit m->body_mass between rollouts, and the mujoco provider must
+// honour the edit in the mass matrix for them to agree with the adjoint (relative 1e-5 for the
+// differences' round-off, as test_cartpole50). Unhonoured, the differences see only the
+// contact's share of the mass and the group is O(1) off.
+START_TEST(test_runtimeMassEditFreeBox) {
+  ost_fixtureSetup();
+  rollout* r = newRollout("box_plane.xml", 0.01, 20, 0, 5);
+  for (int j = 0; j < 6; j++) r->mw->dof_damping[j] = 2;
+  r->qvel0[0] = 1;
+  r->qvel0[1] = -0.5;
+  r->qvel0[5] = 3;
+  int params[1] = {ost_paramAddress(r->m, OST_PARAM_MASS) + 1};
+  double e = checkRollout(r, "free box, run-time mass edits", 1e-6, 1, params);
+  ck_assert_double_lt(e, 1e-5);
+  freeRollout(r);
+}
+END_TEST
+
+
 // ost_transition equals central differences of one ost_step (cart-pole, box at rest, robot)
 START_TEST(test_transition) {
   ost_fixtureSetup();
@@ -516,6 +537,7 @@ int main(void) {
   tcase_add_test(tc, test_robotWheels);
   tcase_add_test(tc, test_robotWheelsCreep);
   tcase_add_test(tc, test_immobileContacts);
+  tcase_add_test(tc, test_runtimeMassEditFreeBox);
   tcase_add_test(tc, test_checkpoint);
   tcase_add_test(tc, test_checkpointGrownCapacity);
   tcase_add_test(tc, test_truncate);
