@@ -109,6 +109,122 @@ int ost_publishedCurrent(ostContext* c, const mjModel* m, const mjData* d) {
   X(ten_J, (m)->ntendon * (m)->nv) X(wrap_obj, 2 * (m)->nwrap) X(wrap_xpos, 6 * (m)->nwrap) \
   X(actuator_length, (m)->nu) X(actuator_moment, (m)->nu * (m)->nv)
 
+// MuJoCo 2.2.2's contact parameters for geoms g1, g2 (mj_collideGeoms and mj_contactParam,
+// engine_collision_driver.c): an explicit <pair> of the two geoms with this condim, margin and
+// gap gives its own; otherwise the geoms' mixed: the higher priority geom's, or at equal
+// priority condim and friction the larger, solref and solimp mixed by solmix (solref's
+// direct form, non-positive, the smaller)
+static void contactParams(const mjModel* m, int g1, int g2, int condim, mjtNum margin,
+                          mjtNum gap, mjContact* con) {
+  for (int i = 0; i < m->npair; i++) {
+    int a = m->pair_geom1[i], b = m->pair_geom2[i];
+    if (((a == g1 && b == g2) || (a == g2 && b == g1)) && m->pair_dim[i] == condim
+        && m->pair_margin[i] == margin && m->pair_gap[i] == gap) {
+      mju_copy(con->friction, m->pair_friction + 5 * i, 5);
+      mju_copy(con->solref, m->pair_solref + mjNREF * i, mjNREF);
+      mju_copy(con->solimp, m->pair_solimp + mjNIMP * i, mjNIMP);
+      return;
+    }
+  }
+  int p1 = m->geom_priority[g1], p2 = m->geom_priority[g2];
+  const mjtNum *f1 = m->geom_friction + 3 * g1, *f2 = m->geom_friction + 3 * g2;
+  mjtNum f[3];
+  if (p1 != p2) {
+    int g = p1 > p2 ? g1 : g2;
+    mju_copy(f, m->geom_friction + 3 * g, 3);
+    mju_copy(con->solref, m->geom_solref + mjNREF * g, mjNREF);
+    mju_copy(con->solimp, m->geom_solimp + mjNIMP * g, mjNIMP);
+  } else {
+    mjtNum s1 = m->geom_solmix[g1], s2 = m->geom_solmix[g2], mix;
+    if (s1 >= mjMINVAL && s2 >= mjMINVAL) {
+      mix = s1 / (s1 + s2);
+    } else if (s1 < mjMINVAL && s2 < mjMINVAL) {
+      mix = 0.5;
+    } else {
+      mix = s1 < mjMINVAL ? 0 : 1;
+    }
+    const mjtNum *r1 = m->geom_solref + mjNREF * g1, *r2 = m->geom_solref + mjNREF * g2;
+    for (int k = 0; k < mjNREF; k++) {
+      con->solref[k] = r1[0] > 0 && r2[0] > 0 ? mix * r1[k] + (1 - mix) * r2[k]
+                                              : mju_min(r1[k], r2[k]);
+    }
+    const mjtNum *i1 = m->geom_solimp + mjNIMP * g1, *i2 = m->geom_solimp + mjNIMP * g2;
+    for (int k = 0; k < mjNIMP; k++) {
+      con->solimp[k] = mix * i1[k] + (1 - mix) * i2[k];
+    }
+    for (int k = 0; k < 3; k++) {
+      f[k] = mju_max(f1[k], f2[k]);
+    }
+  }
+  mjtNum fr[5] = {f[0], f[0], f[1], f[2], f[2]};
+  mju_copy(con->friction, fr, 5);
+}
+
+
+// the contacts of core's pairs (ost_corePair) in place of MuJoCo's: the rows of those pairs are
+// core's contacts (ost_rows_mujoco.c), and MuJoCo 2.2.2's own differ there (its box-box reports
+// centimetres of penetration for boxes millimetres apart at the look-ahead margin). MuJoCo's
+// contacts of core pairs are removed, core's at the same q are appended with MuJoCo's parameters
+// (contactParams), so the constraint rows, forces and touch sensors published after describe the
+// contacts Ostrich solved. Beyond nconmax MuJoCo's warning is raised, as mj_collision would.
+static void coreContacts(ostContext* c, const mjModel* mo, mjData* d) {
+  const ostModel* cp = &c->corepairs;
+  if (!cp->s.npair) {
+    return;
+  }
+  int n = 0;
+  for (int i = 0; i < d->ncon; i++) {
+    if (!ost_corePair(mo, d->contact[i].geom1, d->contact[i].geom2)) {
+      d->contact[n++] = d->contact[i];
+    }
+  }
+  d->ncon = n;
+  for (int p = 0; p < cp->s.npair; p++) {
+    ostContact found[OST_MAXCONPAIR];
+    int g1 = cp->pair_geom1[p], g2 = cp->pair_geom2[p];
+    int nfound = ost_collideCorePair(mo, d, c->hfield_data, g1, g2, cp->pair_margin[p], found);
+    for (int k = 0; k < nfound; k++) {
+      if (d->ncon >= mo->nconmax) {
+        mj_warning(d, mjWARN_CONTACTFULL, d->ncon);
+        return;
+      }
+      mjContact* con = d->contact + d->ncon++;
+      memset(con, 0, sizeof(mjContact));
+      con->dist = found[k].dist;
+      mju_copy3(con->pos, found[k].pos);
+      mju_copy(con->frame, found[k].frame, 9);
+      con->includemargin = cp->pair_margin[p] - cp->pair_gap[p];
+      con->dim = cp->pair_condim[p];
+      con->geom1 = g1;
+      con->geom2 = g2;
+      con->efc_address = -1;
+      contactParams(mo, g1, g2, cp->pair_condim[p], cp->pair_margin[p], cp->pair_gap[p], con);
+    }
+  }
+}
+
+
+// mj_fwdPosition's stages (MuJoCo 2.2.2, engine_forward.c), with core's contacts in place of
+// MuJoCo's for core pairs (coreContacts) between collision and the constraint rows
+static void fwdPosition(ostContext* c, const mjModel* mo, mjData* d) {
+  if (!c->corepairs.s.npair) {
+    mj_fwdPosition(mo, d);
+    return;
+  }
+  mj_kinematics(mo, d);
+  mj_comPos(mo, d);
+  mj_camlight(mo, d);
+  mj_tendon(mo, d);
+  mj_transmission(mo, d);
+  mj_crb(mo, d);
+  mj_factorM(mo, d);
+  mj_collision(mo, d);
+  coreContacts(c, mo, d);
+  mj_makeConstraint(mo, d);
+  mj_projectConstraint(mo, d);
+}
+
+
 int ost_publishPosition(ostContext* c, mjData* d) {
   const mjModel* mo = c->mo;
   const mjData* dg = c->dg;
@@ -116,12 +232,12 @@ int ost_publishPosition(ostContext* c, mjData* d) {
       || dg->ncon > mo->nconmax
       || memcmp(dg->mocap_pos, d->mocap_pos, 3 * mo->nmocap * sizeof(mjtNum))
       || memcmp(dg->mocap_quat, d->mocap_quat, 4 * mo->nmocap * sizeof(mjtNum))) {
-    mj_fwdPosition(mo, d);
+    fwdPosition(c, mo, d);
     return 0;
   }
   // the iterate's qpos is d's as mj_kinematics leaves it: quaternions normalized in place
   if (!kinematicQposEquals(mo, d->qpos, dg->qpos)) {
-    mj_fwdPosition(mo, d);
+    fwdPosition(c, mo, d);
     return 0;
   }
   memcpy(d->qpos, dg->qpos, mo->nq * sizeof(mjtNum));
@@ -134,6 +250,7 @@ int ost_publishPosition(ostContext* c, mjData* d) {
   mj_camlight(mo, d);
   mj_crb(mo, d);
   mj_factorM(mo, d);
+  coreContacts(c, mo, d);
   mj_makeConstraint(mo, d);
   mj_projectConstraint(mo, d);
   c->publish_copies++;

@@ -4,7 +4,8 @@
 // publication runs mj_fwdPosition, step after step, on models that exercise each copied group:
 // free bodies in contact (MuJoCo's humanoid: quaternions, contacts, fixed tendons, motors),
 // spatial tendons wrapping cylinders with muscles (MuJoCo's arm26: wrap points, actuator
-// moments), and a mocap body.
+// moments), and a mocap body. Contacts of the pairs core collides itself (box-box here) are
+// published as core's, with MuJoCo's contact parameters, in place of MuJoCo 2.2.2's own.
 #include <math.h>
 #include <stddef.h>
 #include <stdio.h>
@@ -117,6 +118,102 @@ START_TEST(test_mocap) {
 END_TEST
 
 
+// boxes that core collides (ost_corePair): A rests on the floor, B on A (condim 4, its own
+// friction, solref, solimp and solmix), D on B through an explicit <pair> only (D collides with
+// nothing else); C, fixed and of priority 1, points a corner at the centre of A's face from
+// 5.5 mm away (MuJoCo 2.2.2's box-box reports half that distance for a corner)
+static const char* box_scene =
+  "<mujoco><option timestep='0.005'/><worldbody><geom type='plane' size='5 5 0.1'/>"
+  "<geom name='C' type='box' size='.1 .1 .1' pos='0.239731 -0.094713 0.045122' "
+  "quat='0.963780 -0.211796 -0.009600 0.161797' priority='1' friction='0.5 0.02 0.002' "
+  "solimp='0.7 0.95 0.001 0.5 2'/>"
+  "<body pos='0 0 0.1'><freejoint/><geom name='A' type='box' size='.1 .1 .1' friction='0.7' "
+  "solmix='2' solref='0.03 1.2' solimp='0.8 0.9 0.002 0.5 2'/></body>"
+  "<body pos='0 0 0.3'><freejoint/><geom name='B' type='box' size='.08 .08 .1' mass='2' "
+  "condim='4' friction='0.9 0.01 0.001' solmix='0.5' solref='0.01 0.8'/></body>"
+  "<body pos='0 0 0.46'><freejoint/><geom name='D' type='box' size='.05 .05 .06' mass='0.7' "
+  "contype='0' conaffinity='0'/></body></worldbody>"
+  "<contact><pair geom1='B' geom2='D' condim='3' friction='0.4 0.4 0.005 0.0001 0.0001' "
+  "solref='0.04 1' solimp='0.85 0.9 0.001 0.5 2'/></contact></mujoco>";
+
+
+// the published contacts of the box scene after it settled: core's, not MuJoCo's. Each box
+// pair's contacts carry the parameters MuJoCo's own contact of that pair carries at the same
+// state (its collision of the private, look-ahead model), and their distances are core's: A
+// and C stay 5.5 mm apart (MuJoCo 2.2.2's box-box reports centimetres of penetration there),
+// resting contacts are not penetrated. Hard contact at rest: the published normal forces that
+// carry B and D (2 + 0.7 kg) and D (0.7 kg) sum to their weights.
+START_TEST(test_coreContacts) {
+  ost_fixtureSetup();
+  mjModel* m = ost_fixtureLoadString(box_scene);
+  compare(m, 100, 0);
+  mjData* d = mj_makeData(m);
+  for (int k = 0; k < 100; k++) {
+    ck_assert_int_eq(ost_step(m, d), OST_OK);
+  }
+  const mjModel* mo = ost_context(m, d)->mo;
+  mjData* ref = mj_makeData(mo);
+  memcpy(ref->qpos, d->qpos, m->nq * sizeof(mjtNum));
+  mj_fwdPosition(mo, ref);
+  int A = mj_name2id(m, mjOBJ_GEOM, "A"), B = mj_name2id(m, mjOBJ_GEOM, "B");
+  int C = mj_name2id(m, mjOBJ_GEOM, "C"), D = mj_name2id(m, mjOBJ_GEOM, "D");
+  int pairs[3][2] = {{A, B}, {A, C}, {B, D}}, count[3] = {0, 0, 0};
+  double load[3] = {0, 0, 0}, mujoco_gap_AC = HUGE_VAL;
+  for (int i = 0; i < ref->ncon; i++) {
+    const mjContact* r = ref->contact + i;
+    if ((r->geom1 == A && r->geom2 == C) || (r->geom1 == C && r->geom2 == A)) {
+      mujoco_gap_AC = fmin(mujoco_gap_AC, r->dist);
+    }
+  }
+  for (int i = 0; i < d->ncon; i++) {
+    const mjContact* con = d->contact + i;
+    for (int p = 0; p < 3; p++) {
+      int a = pairs[p][0], b = pairs[p][1];
+      if (!((con->geom1 == a && con->geom2 == b) || (con->geom1 == b && con->geom2 == a))) {
+        continue;
+      }
+      count[p]++;
+      const mjContact* r = NULL;
+      for (int j = 0; j < ref->ncon && !r; j++) {
+        int g1 = ref->contact[j].geom1, g2 = ref->contact[j].geom2;
+        if ((g1 == a && g2 == b) || (g1 == b && g2 == a)) r = ref->contact + j;
+      }
+      ck_assert_msg(r != NULL, "MuJoCo reports no contact of pair %d", p);
+      ck_assert_int_eq(con->dim, r->dim);
+      ck_assert_double_eq(con->includemargin, r->includemargin);
+      ck_assert_double_eq(con->mu, r->mu);
+      for (int k = 0; k < 5; k++) ck_assert_double_eq(con->friction[k], r->friction[k]);
+      for (int k = 0; k < mjNREF; k++) ck_assert_double_eq(con->solref[k], r->solref[k]);
+      for (int k = 0; k < mjNIMP; k++) ck_assert_double_eq(con->solimp[k], r->solimp[k]);
+      if (p == 1) {
+        ck_assert_msg(fabs(con->dist - 0.0055) < 1e-4, "A-C distance %g, not 5.5 mm", con->dist);
+      } else {
+        ck_assert_msg(con->dist > -1e-6, "pair %d penetrated by %g m", p, -con->dist);
+      }
+      mjtNum f[6];
+      mj_contactForce(m, d, i, f);
+      load[p] += f[0];
+    }
+  }
+  printf("box-box contacts: %d A-B, %d A-C, %d B-D; MuJoCo's own A-C distance %.4g m; "
+         "loads %.6g N (B's and D's weight %.6g), %.6g N (D's %.6g), A-C %.3g N\n", count[0],
+         count[1], count[2], mujoco_gap_AC, load[0], 2.7 * 9.81, load[2], 0.7 * 9.81, load[1]);
+  ck_assert_int_ge(count[0], 4);
+  ck_assert_int_ge(count[1], 1);
+  ck_assert_int_ge(count[2], 4);
+  // the case this fixes: MuJoCo's own distance is off by more than a millimetre
+  ck_assert_double_gt(fabs(mujoco_gap_AC - 0.0055), 1e-3);
+  ck_assert_double_lt(fabs(load[0] - 2.7 * 9.81), 1e-6 * 2.7 * 9.81);
+  ck_assert_double_lt(fabs(load[2] - 0.7 * 9.81), 1e-6 * 0.7 * 9.81);
+  // A and C stay apart: only the smoothing's force fb_eps^2 / (2 gap k) acts (1e-11 N)
+  ck_assert_double_lt(fabs(load[1]), 1e-6);
+  mj_deleteData(ref);
+  mj_deleteData(d);
+  mj_deleteModel(m);
+}
+END_TEST
+
+
 int main(void) {
   Suite* s = suite_create("ost_published");
   TCase* tc = tcase_create("published");
@@ -124,6 +221,7 @@ int main(void) {
   tcase_add_test(tc, test_humanoid);
   tcase_add_test(tc, test_arm26);
   tcase_add_test(tc, test_mocap);
+  tcase_add_test(tc, test_coreContacts);
   suite_add_tcase(s, tc);
   return ost_fixtureRun(s);
 }
