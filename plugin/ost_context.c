@@ -12,6 +12,7 @@
 #include "ost_internal.h"
 
 int ost_validateOptions(const ostOptions* opt, char* err, int err_sz);
+int ost_optionsEqual(const ostOptions* a, const ostOptions* b);
 
 static pthread_mutex_t registry_lock = PTHREAD_MUTEX_INITIALIZER;
 static ostContext* registry = NULL;
@@ -285,9 +286,15 @@ int ost_setOptions(const mjModel* m, mjData* d, const ostOptions* opt) {
   if (status) {
     return status;
   }
+  // margins, checks and packing depend on the options: the model is packed again when they
+  // changed, not when the same options are set again (a tape sets its recorded run's options
+  // on its private mjData at every rollout; each repack copied the whole model, textures
+  // included, and cost more than a dm_control pendulum's 150-step backward pass)
+  if (!c->opt_user || !ost_optionsEqual(&c->opt, opt)) {
+    c->model_dirty = 1;
+  }
   c->opt = *opt;
   c->opt_user = 1;
-  c->model_dirty = 1;  // margins, checks and packing depend on the options
   return OST_OK;
 }
 

@@ -105,3 +105,12 @@ int ost_readOptions(const mjModel* m, ostOptions* opt, char* err, int err_sz) {
 int ost_validateOptions(const ostOptions* opt, char* err, int err_sz) {
   return validate(opt, err, err_sz);
 }
+
+
+// 1 if every option of a and b is the same (the table's fields, not the struct's padding)
+int ost_optionsEqual(const ostOptions* a, const ostOptions* b) {
+#define X(name, isint, def) if (a->name != b->name) return 0;
+  OST_OPTIONS(X)
+#undef X
+  return 1;
+}

@@ -43,7 +43,8 @@ static int sameState(const mjModel* m, const mjData* a, const mjData* b) {
 
 
 // 1,000 steps pack once; an edit of a compared array (body_mass) repacks at the next step, an
-// edit of a mesh vertex does not until ost_modelChanged says so
+// edit of a mesh vertex does not until ost_modelChanged says so; new options repack, the same
+// options set again do not
 START_TEST(test_packedOnce) {
   ost_fixtureSetup();
   mjModel* m = ost_fixtureLoadString(scene);
@@ -66,6 +67,14 @@ START_TEST(test_packedOnce) {
   ck_assert_int_eq(ost_setOptions(m, d, &o), OST_OK);
   run(m, d, 10);
   ck_assert_int_eq(ost_totals(d)->model_packs, 4);
+  // the same options set again are no change (a tape sets them on its mjData at every rollout)
+  ck_assert_int_eq(ost_setOptions(m, d, &o), OST_OK);
+  run(m, d, 10);
+  ck_assert_int_eq(ost_totals(d)->model_packs, 4);
+  o.tol = 1e-11;
+  ck_assert_int_eq(ost_setOptions(m, d, &o), OST_OK);
+  run(m, d, 10);
+  ck_assert_int_eq(ost_totals(d)->model_packs, 5);
   mj_deleteData(d);
   mj_deleteModel(m);
 }
