@@ -700,6 +700,21 @@ OST_HD ostNum osti_immobileRows(ostWorld* w, int i, int nf, ostNum kf) {
 }
 
 
+// The relative compliance of the rows of a step that removes a violation present at its start
+// (a joint started beyond its limit, a body placed into its floor, an equality not satisfied:
+// the rows the relax table shifts, ost_step.h). Each shifted row asks for its own share h v_d
+// of the correction, and in a closed kinematic loop the shares need not fit each other or the
+// loop. Agility Cassie from qpos0 starts with its feet and foot cranks 30 degrees beyond their
+// limits, inside plantar-rod four-bars at their dead centre; with the default 1e-6 the shifted
+// limits and the loops fought with internal forces that only that compliance bounded, the
+// dynamics residual floored at 1e-9 to 1e-8 m/s (round-off of those forces) and 191 of 200
+// steps at 0.5 ms did not converge (932 Newton iterates per step). With 1e-4 for every row of
+// such a step: none of 1,000 (4.6 iterates per step). A row then gives way by 1e-4 of the
+// displacement its force would cause on its own in a step (for a resting contact 1e-4 h^2 g,
+// 2.5e-11 m at 0.5 ms); such a step is no exact solution anyway (OST_DEPENETRATED, its gradient
+// refused). Steps without a violation at their start keep `regularization`.
+#define OST_RELAX_REG 1e-4
+
 // evaluate the iterate (qvel, lambda) with the rows and J filled for q(qvel): fills
 // Minv_rdyn, diag, Ju and the row form (c, rho); returns the squared merit residual
 //   |Mt^-1 r_dyn|^2 + sum_i m_i^2,  every term a velocity (m/s or rad/s)
@@ -710,6 +725,9 @@ OST_HD ostNum osti_evaluate(ostWorld* w, const ostSolverOptions* opt) {
   ostNum h = w->h;
   ostNum* t = w->tmp;
   w->op_version++;  // a new Schur operator: a kept envelope factor is stale
+  // the relative compliance of equality, limit and contact rows (eqs. 3, 4): `regularization`,
+  // at least OST_RELAX_REG in a step that removes a violation present at its start
+  ostNum reg = w->nrow_relax > 0 && opt->reg < OST_RELAX_REG ? (ostNum)OST_RELAX_REG : opt->reg;
 
   // Mt^-1 r_dyn = (u - u-) - h Mt^-1 (f + J' lambda)                              (eq. 9)
   osti_mulJT(w, t, w->lambda);
@@ -738,7 +756,7 @@ OST_HD ostNum osti_evaluate(ostWorld* w, const ostSolverOptions* opt) {
     switch (r->type) {
     case OST_ROW_EQUALITY: {
       // c(q+) + E lambda = 0, linearized as h J du + E dlambda = -r                   (eq. 3)
-      ostNum E = r->alpha + opt->reg * h * h * osti_equalityScale(w, i);
+      ostNum E = r->alpha + reg * h * h * osti_equalityScale(w, i);
       w->c[i] = E / h;
       w->rho[i] = (r->pos + E * lam) / h;
       m_i = w->rho[i];
@@ -761,9 +779,9 @@ OST_HD ostNum osti_evaluate(ostWorld* w, const ostSolverOptions* opt) {
       }
       ostNum k = h * h * osti_contactScale(w, i, df);
       ostNum fa, fb;
-      ostNum phi = osti_fb(r->pos + opt->reg * k * lam, k * lam, opt->fb_eps, &fa, &fb);
+      ostNum phi = osti_fb(r->pos + reg * k * lam, k * lam, opt->fb_eps, &fa, &fb);
       ostNum a = fa > 1e-12 ? fa : 1e-12;
-      w->c[i] = opt->reg * k / h + fb * k / (h * a);
+      w->c[i] = reg * k / h + fb * k / (h * a);
       w->rho[i] = phi / (h * a);
       m_i = phi / h;
       if (nf) {
