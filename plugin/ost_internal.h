@@ -188,6 +188,9 @@ void ost_contactKey(const mjModel* m, const mjData* d, const mjContact* con, mjt
 // (plugin/ost_pack.c coreTypes)
 int ost_corePair(const mjModel* m, int g1, int g2);
 
+// MuJoCo's friction (sliding, torsional, rolling) of geoms g1, g2: priority, else the larger
+void ost_mixFriction(const mjModel* m, int g1, int g2, mjtNum fr[3]);
+
 // contacts of core pair (g1, g2) of m at d's kinematics with the given margin into con (room
 // for OST_MAXCONPAIR); hfield_data: m's height-field data as ostNum (ost_hfieldData)
 int ost_collideCorePair(const mjModel* m, const mjData* d, const ostNum* hfield_data, int g1,

@@ -204,6 +204,18 @@ int ost_corePair(const mjModel* m, int g1, int g2) {
 }
 
 
+// MuJoCo's friction of geoms g1, g2 (sliding, torsional, rolling; mj_contactParam): the larger
+// of each coefficient, unless one geom has the higher priority: then its own
+void ost_mixFriction(const mjModel* m, int g1, int g2, mjtNum fr[3]) {
+  int p1 = m->geom_priority[g1], p2 = m->geom_priority[g2];
+  for (int k = 0; k < 3; k++) {
+    fr[k] = p1 > p2   ? m->geom_friction[3 * g1 + k]
+            : p2 > p1 ? m->geom_friction[3 * g2 + k]
+                      : mju_max(m->geom_friction[3 * g1 + k], m->geom_friction[3 * g2 + k]);
+  }
+}
+
+
 // candidate pairs into om (NULL: count only), only core pairs (coreTypes) if core_only;
 // explicit pairs first, as MuJoCo
 static int candidatePairs(const mjModel* m, ostModel* om, int core_only) {
@@ -235,17 +247,10 @@ static int candidatePairs(const mjModel* m, ostModel* om, int core_only) {
                                                             : m->geom_condim[g2];
       mjtNum margin = mju_max(m->geom_margin[g1], m->geom_margin[g2]);
       mjtNum gap = mju_max(m->geom_gap[g1], m->geom_gap[g2]);
-      // MuJoCo's mixing: the larger of each coefficient (sliding, torsional, rolling), unless
-      // one geom has the higher priority: then its condim and friction
       mjtNum fr[3];
-      int p1 = m->geom_priority[g1], p2 = m->geom_priority[g2];
-      for (int k = 0; k < 3; k++) {
-        fr[k] = p1 > p2   ? m->geom_friction[3 * g1 + k]
-                : p2 > p1 ? m->geom_friction[3 * g2 + k]
-                          : mju_max(m->geom_friction[3 * g1 + k], m->geom_friction[3 * g2 + k]);
-      }
-      if (p1 != p2) {
-        condim = m->geom_condim[p1 > p2 ? g1 : g2];
+      ost_mixFriction(m, g1, g2, fr);
+      if (m->geom_priority[g1] != m->geom_priority[g2]) {
+        condim = m->geom_condim[m->geom_priority[g1] > m->geom_priority[g2] ? g1 : g2];
       }
       addPair(om, &n, m, terrain, g1, g2, condim, margin, gap, fr);
     }

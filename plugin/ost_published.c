@@ -111,9 +111,9 @@ int ost_publishedCurrent(ostContext* c, const mjModel* m, const mjData* d) {
 
 // MuJoCo 2.2.2's contact parameters for geoms g1, g2 (mj_collideGeoms and mj_contactParam,
 // engine_collision_driver.c): an explicit <pair> of the two geoms with this condim, margin and
-// gap gives its own; otherwise the geoms' mixed: the higher priority geom's, or at equal
-// priority condim and friction the larger, solref and solimp mixed by solmix (solref's
-// direct form, non-positive, the smaller)
+// gap gives its own; otherwise the geoms' mixed: friction as ost_mixFriction, solref and solimp
+// the higher priority geom's, or at equal priority mixed by solmix (solref's direct form,
+// non-positive, the smaller)
 static void contactParams(const mjModel* m, int g1, int g2, int condim, mjtNum margin,
                           mjtNum gap, mjContact* con) {
   for (int i = 0; i < m->npair; i++) {
@@ -127,11 +127,10 @@ static void contactParams(const mjModel* m, int g1, int g2, int condim, mjtNum m
     }
   }
   int p1 = m->geom_priority[g1], p2 = m->geom_priority[g2];
-  const mjtNum *f1 = m->geom_friction + 3 * g1, *f2 = m->geom_friction + 3 * g2;
   mjtNum f[3];
+  ost_mixFriction(m, g1, g2, f);
   if (p1 != p2) {
     int g = p1 > p2 ? g1 : g2;
-    mju_copy(f, m->geom_friction + 3 * g, 3);
     mju_copy(con->solref, m->geom_solref + mjNREF * g, mjNREF);
     mju_copy(con->solimp, m->geom_solimp + mjNIMP * g, mjNIMP);
   } else {
@@ -151,9 +150,6 @@ static void contactParams(const mjModel* m, int g1, int g2, int condim, mjtNum m
     const mjtNum *i1 = m->geom_solimp + mjNIMP * g1, *i2 = m->geom_solimp + mjNIMP * g2;
     for (int k = 0; k < mjNIMP; k++) {
       con->solimp[k] = mix * i1[k] + (1 - mix) * i2[k];
-    }
-    for (int k = 0; k < 3; k++) {
-      f[k] = mju_max(f1[k], f2[k]);
     }
   }
   mjtNum fr[5] = {f[0], f[0], f[1], f[2], f[2]};
