@@ -42,6 +42,8 @@ typedef struct ostNewtonStats_ {  // one Newton loop's outcome
   int    geometry_evals;          // trial geometries evaluated
   int    nonfinite;               // 1 if an iterate's merit was not finite
   int    relaxed;                 // 1 if violations at q- were kept in part (osti_relaxStart)
+  int    retry;                   // 1 if this loop was the step driver's cold retry of a loop
+                                  // that failed from its warm start (osti_stepDriven)
   ostNum first;                   // merit of iterate 0 (m/s)
   ostNum best_merit;              // merit of the returned iterate (m/s)
   ostNum initial_violation;       // deepest violation at q- when relaxed (m or rad), else 0
@@ -439,7 +441,7 @@ typedef struct ostStepSettings_ { // what a native step needs besides the model 
   int    linesearch;              // halvings of the line search
   int    split_depth;             // deepest splitting of a step whose merit stays above split_tol
   int    warmstart;               // 1: multipliers start from the last step's result
-  int    pad;
+  int    cold_retry;              // 1: a loop that failed from a warm start is redone once cold
   ostNum h;                       // step (s)
   ostNum split_tol;               // merit above which a step is redone as two halves (m/s)
   ostNum lookahead;               // contacts are reported up to this gap (m)
@@ -559,20 +561,29 @@ typedef struct ostStepDriver_ {   // the caller's part of a step (osti_stepDrive
 // and set->warmstart), then either a split or the commit (qvel = u+, qacc_warm = (u+ - u-) / h,
 // the world's warm rows, *warm = 1). Splitting: a substep whose best merit stays above split_tol
 // is redone from its start as two half steps, up to split_depth levels, depth first (a stack of
-// depths; both halves of a split have the same depth). Returns OST_STEP_* bits; on a failure bit
-// the state is undefined (the caller restores it) and *status holds the callbacks' or Newton's
-// nonzero status (OST_NEWTON_NONFINITE included; 0 for a factor failure). *substeps and *worst
-// get the substeps committed and their largest best merit.
+// depths; both halves of a split have the same depth). Cold retry (set->cold_retry): a loop that
+// failed from a warm start (u- + h qacc_warm != u-, or carried multipliers) is first redone once
+// at the same h from u- with no carried multipliers; only if that fails too is the substep split.
+// At the deepest level the better of the two loops is committed (the warm one run again if it
+// was better: loops are deterministic). Converging loops never take these paths, so their bits do
+// not depend on them. Returns OST_STEP_* bits; on a failure bit the state is undefined (the
+// caller restores it) and *status holds the callbacks' or Newton's nonzero status
+// (OST_NEWTON_NONFINITE included; 0 for a factor failure). *substeps and *worst get the
+// substeps committed and their largest best merit.
 OST_HD int osti_stepDriven(ostWorld* w, int nq, ostNum* qpos, ostNum* qpos_prev, ostNum* qvel,
                            ostNum* qacc_warm, int* warm, const ostStepSettings* set,
                            const ostStepDriver* drv, int* substeps, ostNum* worst, int* status) {
+  // the stack's entries: 4 depth + the kind of loop, one of
+  enum { OST_LOOP_WARM = 0, OST_LOOP_COLD = 1, OST_LOOP_WARM_AGAIN = 2 };
   int nv = w->nv, stack[OST_SPLIT_MAX + 2], top = 0, bits = 0;
+  ostNum warm_merit = 0;  // best merit of the failed warm loop that a cold retry redoes
   *substeps = 0;
   *worst = 0;
   *status = 0;
-  stack[top++] = 0;
+  stack[top++] = 4 * 0 + OST_LOOP_WARM;
   while (top > 0) {
-    int depth = stack[--top];
+    int depth = stack[top - 1] / 4, kind = stack[top - 1] % 4;
+    top--;
     ostNum h = set->h;
     for (int d = 0; d < depth; d++) h *= 0.5;
     w->h = h;
@@ -586,25 +597,44 @@ OST_HD int osti_stepDriven(ostWorld* w, int nq, ostNum* qpos, ostNum* qpos_prev,
     if (osti_factorMass(w)) {
       return bits | OST_STEP_CHOL_FAIL;
     }
-    // u starts from u- + h qacc_warm; the multipliers from the last result if warm
+    // u starts from u- + h qacc_warm, the multipliers from the last result if warm; a cold
+    // retry starts from u- without multipliers. started_warm: a cold start would differ
+    int cold = kind == OST_LOOP_COLD, started_warm = *warm && set->warmstart && w->nrow_warm > 0;
     for (int j = 0; j < nv; j++) {
-      w->tmp[j] = qvel[j] + h * qacc_warm[j];
+      w->tmp[j] = qvel[j] + (cold ? 0 : h * qacc_warm[j]);
+      started_warm |= w->tmp[j] != qvel[j];
     }
-    osti_startStep(w, w->tmp, *warm && set->warmstart);
+    osti_startStep(w, w->tmp, !cold && *warm && set->warmstart);
     ostNewtonStats st;
     *status = osti_newton(w, &set->so, set->linesearch, drv->geometry, drv->ctx, drv->merit_k,
                           drv->nrow_k, drv->nk, &st);
+    st.retry = cold;
     if (drv->newton) {
       *status = drv->newton(drv->ctx, &st, *status);
     }
     if (*status) {
       return bits | drv->failBits(*status);
     }
-    if (st.best_merit > set->split_tol && depth < set->split_depth) {
+    int failed = st.best_merit > set->split_tol;
+    if (failed && kind == OST_LOOP_WARM && started_warm && set->cold_retry) {
+      // a warm start can put Newton in a cycle (a contact's friction alternating between
+      // sticking and sliding iterates) that a cold start avoids: redo this substep once cold
+      for (int i = 0; i < nq; i++) qpos[i] = qpos_prev[i];
+      warm_merit = st.best_merit;
+      stack[top++] = 4 * depth + OST_LOOP_COLD;
+      continue;
+    }
+    if (failed && depth < set->split_depth) {
       // redo from this substep's start as two halves
       for (int i = 0; i < nq; i++) qpos[i] = qpos_prev[i];
-      stack[top++] = depth + 1;
-      stack[top++] = depth + 1;
+      stack[top++] = 4 * (depth + 1) + OST_LOOP_WARM;
+      stack[top++] = 4 * (depth + 1) + OST_LOOP_WARM;
+      continue;
+    }
+    if (failed && kind == OST_LOOP_COLD && !(st.best_merit < warm_merit)) {
+      // the deepest level's cold retry did no better: run the warm loop again and commit it
+      for (int i = 0; i < nq; i++) qpos[i] = qpos_prev[i];
+      stack[top++] = 4 * depth + OST_LOOP_WARM_AGAIN;
       continue;
     }
 

@@ -25,7 +25,8 @@
   X(friction_creep, 0, 0)                  \
   X(geometry,      1, 0)                    \
   X(depenetration_speed, 0, 1)          \
-  X(geometric_newton, 1, 1)
+  X(geometric_newton, 1, 1)               \
+  X(cold_retry,    1, 1)
 
 void ost_defaultOptions(ostOptions* opt) {
 #define X(name, isint, def) opt->name = def;
@@ -60,6 +61,8 @@ static int validate(const ostOptions* o, char* err, int err_sz) {
     bad = "depenetration_speed must be >= 0 m/s (0: remove violations at once)";
   } else if (o->geometric_newton < 0 || o->geometric_newton > 2) {
     bad = "geometric_newton must be 0 (off), 1 (on slow iterates) or 2 (every iterate)";
+  } else if (o->cold_retry != 0 && o->cold_retry != 1) {
+    bad = "cold_retry must be 0 or 1";
   }
   if (bad) {
     if (err) snprintf(err, err_sz, "ostrich option: %s", bad);

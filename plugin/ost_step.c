@@ -247,6 +247,7 @@ static int newtonCallback(void* ctx, const ostNewtonStats* ns, int status) {
   mjData* d = s->d;
   ostStats* st = &c->stats;
   st->geometry_evals += ns->geometry_evals;
+  st->retries += ns->retry;
   if (ns->nonfinite) {
     st->status |= OST_NAN;
   }
@@ -426,6 +427,7 @@ static int countStep(ostContext* c, int status) {
   const ostStats* st = &c->stats;
   t->unconverged += (st->status & OST_NOT_CONVERGED) != 0;
   t->depenetrated += (st->status & OST_DEPENETRATED) != 0;
+  t->retries += st->retries;
   t->overflow += (st->status & OST_OVERFLOW) != 0;
   t->worst_residual = mju_max(t->worst_residual, st->residual);
   t->worst_initial_violation = mju_max(t->worst_initial_violation, st->initial_violation);
@@ -656,7 +658,8 @@ static int failBits(int status) {
 // restores the state on a failure.
 static int advance(ostContext* c, mjData* d, mjtNum h, int fresh) {
   const ostOptions* o = &c->opt;
-  ostStepSettings set = {ost_solverOptions(o), o->linesearch, o->split_depth, o->warmstart, 0, h,
+  ostStepSettings set = {ost_solverOptions(o), o->linesearch, o->split_depth, o->warmstart,
+                         o->cold_retry, h,
                          o->split_tol, o->margin, o->depenetration_speed};
   stepContext s = {c, d, fresh, {0}, {0}};
   ostStepDriver drv = {&s, startCallback, geometryCallback, newtonCallback, commitCallback,

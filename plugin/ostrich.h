@@ -125,6 +125,9 @@ typedef struct ostOptions_ {
                                   // 2 every iterate. Steps with the mujoco geometry provider
                                   // only: the native provider and the batches keep the
                                   // fixed-J model, bitwise as on the GPU             (1)
+  int    cold_retry;              // 1: a Newton loop that fails from its warm start is
+                                  // redone once from a cold start (u-, no carried forces)
+                                  // before its step is split; 0: split at once       (1)
 } ostOptions;
 
 typedef enum ostGeometry_ {       // geometry providers (option `geometry`)
@@ -238,6 +241,9 @@ typedef struct ostStats_ {
                                   // worst island's (core/README.md section 1, "Islands")
   int    ncon_capacity;           // contacts the iterates had room for: the model's nconmax,
                                   // doubled each time the look-ahead overflowed it
+  int    retries;                 // Newton loops redone from a cold start after failing from
+                                  // the warm one (option cold_retry; core/README.md "Cold
+                                  // retry"): 0 unless a loop failed
 } ostStats;
 
 // Counts since d was first stepped by Ostrich (or ost_resetTotals), like mjData.warning[].number:
@@ -247,6 +253,7 @@ typedef struct ostTotals_ {
   long   failed;                  // steps refused or failed (state left unchanged)
   long   unconverged;             // steps that returned OST_WARN_NOT_CONVERGED
   long   depenetrated;            // steps with OST_DEPENETRATED
+  long   retries;                 // Newton loops redone from a cold start (ostStats.retries)
   long   overflow;                // steps with OST_OVERFLOW (capacity exceeded)
   double worst_residual;          // largest committed residual (m/s)
   double worst_initial_violation; // largest initial_violation (m or rad)

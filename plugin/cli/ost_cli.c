@@ -85,7 +85,8 @@ static void sim_usage(FILE* f) {
     "nan (a non-finite qpos/qvel was seen, or MuJoCo reset a diverged state; stepping stops\n"
     "there), max_penetration (m, deepest contact over all steps), mean_residual (ostrich: merit\n"
     "residual; mujoco: final solver gradient norm), mean_newton_iter (ostrich: Newton\n"
-    "iterates; mujoco: solver iterations), key (the start keyframe, null: qpos0) and\n"
+    "iterates; mujoco: solver iterations), cold_retries (ostrich: Newton solves redone from\n"
+    "a cold start after failing from the warm one), key (the start keyframe, null: qpos0) and\n"
     "final_qpos. Both engines start from the same state: qpos0 (mj_resetData), or keyframe K\n"
     "with --key K.\n"
     "\n"
@@ -359,9 +360,10 @@ static void sim_report(const simArgs* a, const simRun* r) {
     cli_jsonNumber(stdout, t->worst_residual);
     printf(",\"depenetrated_steps\":%ld,\"worst_initial_violation\":", t->depenetrated);
     cli_jsonNumber(stdout, t->worst_initial_violation);
+    printf(",\"cold_retries\":%ld", t->retries);
   } else {
     printf(",\"unconverged_steps\":null,\"worst_residual\":null,\"depenetrated_steps\":null,"
-           "\"worst_initial_violation\":null");
+           "\"worst_initial_violation\":null,\"cold_retries\":null");
   }
   if (a->key == CLI_KEY_NONE) {
     printf(",\"key\":null");

@@ -1,6 +1,9 @@
 """Physics: views of mjModel / mjData, named indexing, loading errors, stepping with both engines,
 options and statistics (plugin/python/ostrich/physics.py, named.py, ost_python.c)."""
 
+import os
+import warnings
+
 import numpy as np
 import pytest
 
@@ -139,6 +142,34 @@ def test_options_stats_and_unconverged_step_warns():
   assert physics.totals["unconverged"] >= 1 and physics.totals["steps"] == 30
   physics.set_options(newton_iter=64)
   assert physics.step() == 0 and physics.converged and physics.stats["status"] == 0
+
+
+
+def test_cold_retry_option_and_counts():
+  """The planar legs of tests/models at h = 0.03 s under the controls of test_ost_step.c's
+  test_coldRetry (xorshift64 from seed 27, held 3 steps): its 75th step stalls from the warm
+  start (a warning with cold_retry 0) and converges after one cold retry (the default)."""
+  path = os.path.join(model_path(""), "..", "tests", "models", "planar_legs.xml")
+  for retry in (0, 1):
+    physics = ostrich.Physics.from_xml_path(path)
+    assert physics.options["cold_retry"] == 1
+    physics.set_options(timestep=0.03, cold_retry=retry)
+    x = (27 * 0x9E3779B97F4A7C15 + 1) % 2**64
+    for k in range(100):
+      if k % 3 == 0:
+        for i in range(physics.nu):
+          x ^= (x << 13) % 2**64
+          x ^= x >> 7
+          x ^= (x << 17) % 2**64
+          physics.data.ctrl[i] = 2 * ((x >> 11) * 2.0**-53) - 1
+      with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ostrich.NotConvergedWarning)
+        physics.step()
+    totals = physics.totals
+    if retry:
+      assert totals["unconverged"] == 0 and totals["retries"] >= 1
+    else:
+      assert totals["unconverged"] >= 1 and totals["retries"] == 0
 
 
 def test_views_keep_their_memory_alive():
