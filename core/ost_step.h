@@ -565,11 +565,13 @@ typedef struct ostStepDriver_ {   // the caller's part of a step (osti_stepDrive
 // failed from a warm start (u- + h qacc_warm != u-, or carried multipliers) is first redone once
 // at the same h from u- with no carried multipliers; only if that fails too is the substep split.
 // At the deepest level the better of the two loops is committed (the warm one run again if it
-// was better: loops are deterministic). Converging loops never take these paths, so their bits do
-// not depend on them. Returns OST_STEP_* bits; on a failure bit the state is undefined (the
-// caller restores it) and *status holds the callbacks' or Newton's nonzero status
-// (OST_NEWTON_NONFINITE included; 0 for a factor failure). *substeps and *worst get the
-// substeps committed and their largest best merit.
+// was better: loops are deterministic). Once a cold retry has failed, the step's trouble is not
+// its warm start: its remaining substeps split without retrying, so a step pays at most one
+// failed retry. Converging loops never take these paths, so their bits do not depend on them.
+// Returns OST_STEP_* bits; on a failure bit the state is undefined (the caller restores it) and
+// *status holds the callbacks' or Newton's nonzero status (OST_NEWTON_NONFINITE included; 0 for
+// a factor failure). *substeps and *worst get the substeps committed and their largest best
+// merit.
 OST_HD int osti_stepDriven(ostWorld* w, int nq, ostNum* qpos, ostNum* qpos_prev, ostNum* qvel,
                            ostNum* qacc_warm, int* warm, const ostStepSettings* set,
                            const ostStepDriver* drv, int* substeps, ostNum* worst, int* status) {
@@ -577,6 +579,7 @@ OST_HD int osti_stepDriven(ostWorld* w, int nq, ostNum* qpos, ostNum* qpos_prev,
   enum { OST_LOOP_WARM = 0, OST_LOOP_COLD = 1, OST_LOOP_WARM_AGAIN = 2 };
   int nv = w->nv, stack[OST_SPLIT_MAX + 2], top = 0, bits = 0;
   ostNum warm_merit = 0;  // best merit of the failed warm loop that a cold retry redoes
+  int retry_failed = 0;   // 1 once a cold retry of this step failed
   *substeps = 0;
   *worst = 0;
   *status = 0;
@@ -616,7 +619,8 @@ OST_HD int osti_stepDriven(ostWorld* w, int nq, ostNum* qpos, ostNum* qpos_prev,
       return bits | drv->failBits(*status);
     }
     int failed = st.best_merit > set->split_tol;
-    if (failed && kind == OST_LOOP_WARM && started_warm && set->cold_retry) {
+    retry_failed |= failed && cold;
+    if (failed && kind == OST_LOOP_WARM && started_warm && set->cold_retry && !retry_failed) {
       // a warm start can put Newton in a cycle (a contact's friction alternating between
       // sticking and sliding iterates) that a cold start avoids: redo this substep once cold
       for (int i = 0; i < nq; i++) qpos[i] = qpos_prev[i];
