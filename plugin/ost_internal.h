@@ -168,6 +168,10 @@ int ost_capacityFail(ostContext* c, const char* what, int cap);
 // kinematics and collision on the private model (the `mujoco` geometry provider)
 int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h);
 
+// the contacts of d from MuJoCo's general convex collision (MPR) with their true distance
+// within the margin (bisection on MPR's exact intersection test) instead of MPR's inflated depth
+void ost_refineConvexContacts(const mjModel* m, mjData* d);
+
 // tendon t's Jacobian row of d into the dense row J (nv), whether MuJoCo stores it sparse or not
 void ost_tendonRow(const mjModel* m, const mjData* d, int t, mjtNum* J);
 

@@ -200,13 +200,10 @@ static void coreContacts(ostContext* c, const mjModel* mo, mjData* d) {
 }
 
 
-// mj_fwdPosition's stages (MuJoCo 2.2.2, engine_forward.c), with core's contacts in place of
-// MuJoCo's for core pairs (coreContacts) between collision and the constraint rows
+// mj_fwdPosition's stages (MuJoCo 2.2.2, engine_forward.c), with the general convex contacts'
+// true distances (ost_refineConvexContacts) and core's contacts in place of MuJoCo's for core
+// pairs (coreContacts) between collision and the constraint rows
 static void fwdPosition(ostContext* c, const mjModel* mo, mjData* d) {
-  if (!c->corepairs.s.npair) {
-    mj_fwdPosition(mo, d);
-    return;
-  }
   mj_kinematics(mo, d);
   mj_comPos(mo, d);
   mj_camlight(mo, d);
@@ -215,6 +212,7 @@ static void fwdPosition(ostContext* c, const mjModel* mo, mjData* d) {
   mj_crb(mo, d);
   mj_factorM(mo, d);
   mj_collision(mo, d);
+  ost_refineConvexContacts(mo, d);
   coreContacts(c, mo, d);
   mj_makeConstraint(mo, d);
   mj_projectConstraint(mo, d);

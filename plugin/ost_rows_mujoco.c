@@ -292,6 +292,54 @@ int ost_collideCorePair(const mjModel* m, const mjData* d, const ostNum* hfield_
 }
 
 
+// MuJoCo 2.2.2's general convex collision (mjc_Convex: MPR on both geoms inflated by margin/2)
+// reports dist = margin - depth, and MPR's depth of the inflated shapes is not their true overlap
+// where their nearest features are not aligned with its search direction: inside the look-ahead,
+// meshes 0.2 mm apart came out 2 mm deep, and a quadruped's chassis and leg
+// meshes 0.97 mm apart 0.2 mm deep (compare/results/menagerie.md, Barkour). MPR's intersection
+// test is exact for convex shapes, so the distance d of two separated geoms is the smallest margin
+// at which it reports a contact: found by bisection to OST_CONVEX_TOL, the contact's point and
+// normal then taken from MPR at that margin (the shapes inflated just enough to touch). Geoms that
+// overlap keep MPR's contact without inflation (margin 0), which is stock MuJoCo's own at a zero
+// margin. Pairs with several contacts (MuJoCo's multiCCD, off by default) are left as they are.
+#define OST_CONVEX_TOL 1e-8  // m: the bisection's bracket on the distance
+void ost_refineConvexContacts(const mjModel* m, mjData* d) {
+  mjfCollision convex = mjCOLLISIONFUNC[mjGEOM_MESH][mjGEOM_MESH];  // mjc_Convex
+  if (mjENABLED(mjENBL_MULTICCD)) {
+    return;
+  }
+  for (int i = 0; i < d->ncon; i++) {
+    mjContact* con = d->contact + i;
+    int g1 = con->geom1, g2 = con->geom2;
+    if (mjCOLLISIONFUNC[m->geom_type[g1]][m->geom_type[g2]] != convex) {
+      continue;
+    }
+    mjContact t;
+    mjtNum hi = mju_max(m->geom_margin[g1], m->geom_margin[g2]), lo = 0;
+    if (convex(m, d, &t, g1, g2, 0) == 1) {
+      hi = 0;  // overlapping: MPR's depth of the shapes themselves
+    } else if (convex(m, d, &t, g1, g2, hi) != 1) {
+      continue;  // found at another margin (an explicit <pair>'s): left as MuJoCo made it
+    } else {
+      // no contact at lo, one at hi: the distance lies in [lo, hi]
+      while (hi - lo > OST_CONVEX_TOL) {
+        mjtNum mid = 0.5 * (lo + hi);
+        if (convex(m, d, &t, g1, g2, mid) == 1) {
+          hi = mid;
+        } else {
+          lo = mid;
+        }
+      }
+      convex(m, d, &t, g1, g2, hi);
+      t.dist = hi;
+    }
+    con->dist = t.dist;
+    mju_copy3(con->pos, t.pos);
+    mju_copy(con->frame, t.frame, 9);
+  }
+}
+
+
 int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
   const mjModel* m = c->mo;  // its nconmax and njmax are d's (ost_step.c evalGeometry)
   ostWorld* w = &c->world;
@@ -305,6 +353,7 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
   mj_tendon(m, d);
   mj_transmission(m, d);
   mj_collision(m, d);
+  ost_refineConvexContacts(m, d);
   // MuJoCo's rows for equalities and joint limits only: the contacts get Ostrich's own rows
   // below, so MuJoCo's contact rows (a pyramid or cone Jacobian per contact) are not built
   int ncon = d->ncon;

@@ -5,7 +5,8 @@
 // free bodies in contact (MuJoCo's humanoid: quaternions, contacts, fixed tendons, motors),
 // spatial tendons wrapping cylinders with muscles (MuJoCo's arm26: wrap points, actuator
 // moments), and a mocap body. Contacts of the pairs core collides itself (box-box here) are
-// published as core's, with MuJoCo's contact parameters, in place of MuJoCo 2.2.2's own.
+// published as core's, with MuJoCo's contact parameters, in place of MuJoCo 2.2.2's own, and the
+// contacts of MuJoCo's general convex collision with their true distances.
 #include <math.h>
 #include <stddef.h>
 #include <stdio.h>
@@ -214,6 +215,158 @@ START_TEST(test_coreContacts) {
 END_TEST
 
 
+// two convex meshes 0.195 mm apart (a bar fixed in the world, a free wedge; no gravity): inside
+// Ostrich's 1 cm look-ahead MuJoCo 2.2.2's convex collision (MPR on both shapes inflated by half
+// the margin) reports them 2.2 mm deep. Ostrich's rows and published contact carry their true
+// distance (ost_refineConvexContacts), so the step removes no phantom penetration and the wedge,
+// on which no force acts, stays at rest.
+static const char* convex_scene =
+  "<mujoco><option gravity='0 0 0' timestep='0.01'/><asset>"
+  "<mesh name='bar' vertex='-.06 -.01 -.01 .06 -.01 -.01 -.06 .01 -.01 .06 .01 -.01 -.06 -.01 .01"
+  " .06 -.01 .01 -.06 .01 .01 .06 .01 .01'/>"
+  "<mesh name='wedge' vertex='0 0 0 .08 0 0 0 .08 0 0 0 .05 .02 .02 .06'/></asset><worldbody>"
+  "<geom name='bar' type='mesh' mesh='bar'/>"
+  "<body pos='0.1327 -0.0075 -0.0291' quat='0.19493 0.00526 -0.70943 0.67726'><freejoint/>"
+  "<geom name='wedge' type='mesh' mesh='wedge'/></body></worldbody></mujoco>";
+
+// closest point to p on triangle abc (Ericson, Real-Time Collision Detection, 5.1.5)
+static void closestOnTriangle(const double p[3], const double a[3], const double b[3],
+                              const double c[3], double out[3]) {
+  double ab[3], ac[3], ap[3], bp[3], cp[3];
+  mju_sub3(ab, b, a);
+  mju_sub3(ac, c, a);
+  mju_sub3(ap, p, a);
+  double d1 = mju_dot3(ab, ap), d2 = mju_dot3(ac, ap);
+  if (d1 <= 0 && d2 <= 0) { mju_copy3(out, a); return; }
+  mju_sub3(bp, p, b);
+  double d3 = mju_dot3(ab, bp), d4 = mju_dot3(ac, bp);
+  if (d3 >= 0 && d4 <= d3) { mju_copy3(out, b); return; }
+  double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) {
+    mju_addScl3(out, a, ab, d1 / (d1 - d3));
+    return;
+  }
+  mju_sub3(cp, p, c);
+  double d5 = mju_dot3(ab, cp), d6 = mju_dot3(ac, cp);
+  if (d6 >= 0 && d5 <= d6) { mju_copy3(out, c); return; }
+  double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) {
+    mju_addScl3(out, a, ac, d2 / (d2 - d6));
+    return;
+  }
+  double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) {
+    double bc[3];
+    mju_sub3(bc, c, b);
+    mju_addScl3(out, b, bc, (d4 - d3) / ((d4 - d3) + (d5 - d6)));
+    return;
+  }
+  double den = 1 / (va + vb + vc);
+  for (int k = 0; k < 3; k++) out[k] = a[k] + ab[k] * vb * den + ac[k] * vc * den;
+}
+
+// distance of segments p1q1 and p2q2 (Ericson 5.1.9)
+static double segmentDistance(const double p1[3], const double q1[3], const double p2[3],
+                              const double q2[3]) {
+  double d1[3], d2[3], r[3], c1[3], c2[3], s, t;
+  mju_sub3(d1, q1, p1);
+  mju_sub3(d2, q2, p2);
+  mju_sub3(r, p1, p2);
+  double a = mju_dot3(d1, d1), e = mju_dot3(d2, d2), f = mju_dot3(d2, r);
+  double c = mju_dot3(d1, r), b = mju_dot3(d1, d2), den = a * e - b * b;
+  s = den > 0 ? mju_clip((b * f - c * e) / den, 0, 1) : 0;
+  t = (b * s + f) / e;
+  if (t < 0) {
+    t = 0;
+    s = mju_clip(-c / a, 0, 1);
+  } else if (t > 1) {
+    t = 1;
+    s = mju_clip((b - c) / a, 0, 1);
+  }
+  mju_addScl3(c1, p1, d1, s);
+  mju_addScl3(c2, p2, d2, t);
+  return mju_dist3(c1, c2);
+}
+
+// the world vertices of mesh geom g (at most 16)
+static int meshVertices(const mjModel* m, const mjData* d, int g, double v[16][3]) {
+  int id = m->geom_dataid[g], n = m->mesh_vertnum[id];
+  for (int i = 0; i < n && i < 16; i++) {
+    double local[3];
+    for (int k = 0; k < 3; k++) local[k] = m->mesh_vert[3 * (m->mesh_vertadr[id] + i) + k];
+    mju_rotVecMat(v[i], local, d->geom_xmat + 9 * g);
+    mju_addTo3(v[i], d->geom_xpos + 3 * g);
+  }
+  return n;
+}
+
+// distance of two separated convex mesh geoms by brute force over their hulls' features:
+// vertex-triangle both ways and edge-edge (exact for convex polytopes)
+static double polytopeDistance(const mjModel* m, const mjData* d, int g1, int g2) {
+  double v[2][16][3], best = HUGE_VAL;
+  int gs[2] = {g1, g2};
+  for (int s = 0; s < 2; s++) meshVertices(m, d, gs[s], v[s]);
+  for (int s = 0; s < 2; s++) {
+    int id = m->geom_dataid[gs[s]], o = 1 - s, io = m->geom_dataid[gs[o]];
+    for (int f = 0; f < m->mesh_facenum[id]; f++) {
+      const int* tri = m->mesh_face + 3 * (m->mesh_faceadr[id] + f);
+      for (int i = 0; i < m->mesh_vertnum[io]; i++) {
+        double q[3];
+        closestOnTriangle(v[o][i], v[s][tri[0]], v[s][tri[1]], v[s][tri[2]], q);
+        best = fmin(best, mju_dist3(q, v[o][i]));
+      }
+      for (int f2 = 0; s == 0 && f2 < m->mesh_facenum[io]; f2++) {
+        const int* tri2 = m->mesh_face + 3 * (m->mesh_faceadr[io] + f2);
+        for (int e = 0; e < 3; e++) {
+          for (int e2 = 0; e2 < 3; e2++) {
+            best = fmin(best, segmentDistance(v[0][tri[e]], v[0][tri[(e + 1) % 3]],
+                                              v[1][tri2[e2]], v[1][tri2[(e2 + 1) % 3]]));
+          }
+        }
+      }
+    }
+  }
+  return best;
+}
+
+START_TEST(test_convexContacts) {
+  ost_fixtureSetup();
+  mjModel* m = ost_fixtureLoadString(convex_scene);
+  mjData* d = mj_makeData(m);
+  mj_forward(m, d);
+  int bar = mj_name2id(m, mjOBJ_GEOM, "bar"), wedge = mj_name2id(m, mjOBJ_GEOM, "wedge");
+  double truth = polytopeDistance(m, d, bar, wedge);
+  // the case this fixes: MuJoCo's convex collision at the look-ahead margin is 2 mm off
+  mjContact raw;
+  ck_assert_int_eq(mjCOLLISIONFUNC[mjGEOM_MESH][mjGEOM_MESH](m, d, &raw, bar, wedge, 0.01), 1);
+  ck_assert_double_gt(fabs(raw.dist - truth), 1e-3);
+  ck_assert_int_eq(ost_step(m, d), OST_OK);
+  const ostStats* st = ost_stats(d);
+  ck_assert_int_eq(st->status & OST_DEPENETRATED, 0);
+  ck_assert_double_eq(st->initial_violation, 0);
+  double speed = 0;
+  for (int j = 0; j < m->nv; j++) speed = fmax(speed, fabs(d->qvel[j]));
+  int found = 0;
+  double dist = HUGE_VAL;
+  for (int i = 0; i < d->ncon; i++) {
+    const mjContact* con = d->contact + i;
+    if ((con->geom1 == bar && con->geom2 == wedge) || (con->geom1 == wedge && con->geom2 == bar)) {
+      found++;
+      dist = con->dist;
+    }
+  }
+  printf("convex meshes: true distance %.6g m, MuJoCo's MPR at the look-ahead %.6g m, published "
+         "%.6g m; wedge speed after a step %.3g\n", truth, raw.dist, dist, speed);
+  ck_assert_int_eq(found, 1);
+  ck_assert_msg(fabs(dist - truth) < 1e-7, "published distance %g, true %g", dist, truth);
+  // nothing touches and nothing acts: only the FB smoothing's force (~1e-12 N) remains
+  ck_assert_double_lt(speed, 1e-9);
+  mj_deleteData(d);
+  mj_deleteModel(m);
+}
+END_TEST
+
+
 int main(void) {
   Suite* s = suite_create("ost_published");
   TCase* tc = tcase_create("published");
@@ -222,6 +375,7 @@ int main(void) {
   tcase_add_test(tc, test_arm26);
   tcase_add_test(tc, test_mocap);
   tcase_add_test(tc, test_coreContacts);
+  tcase_add_test(tc, test_convexContacts);
   suite_add_tcase(s, tc);
   return ost_fixtureRun(s);
 }
