@@ -26,7 +26,8 @@
   X(geometry,      1, 0)                    \
   X(depenetration_speed, 0, 1)          \
   X(geometric_newton, 1, 1)               \
-  X(cold_retry,    1, 1)
+  X(cold_retry,    1, 1)                    \
+  X(convex_distance, 1, 0)
 
 void ost_defaultOptions(ostOptions* opt) {
 #define X(name, isint, def) opt->name = def;
@@ -63,6 +64,8 @@ static int validate(const ostOptions* o, char* err, int err_sz) {
     bad = "geometric_newton must be 0 (off), 1 (on slow iterates) or 2 (every iterate)";
   } else if (o->cold_retry != 0 && o->cold_retry != 1) {
     bad = "cold_retry must be 0 or 1";
+  } else if (o->convex_distance != 0 && o->convex_distance != 1) {
+    bad = "convex_distance must be 0 or 1";
   }
   if (bad) {
     if (err) snprintf(err, err_sz, "ostrich option: %s", bad);

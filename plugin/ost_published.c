@@ -204,6 +204,10 @@ static void coreContacts(ostContext* c, const mjModel* mo, mjData* d) {
 // true distances (ost_refineConvexContacts) and core's contacts in place of MuJoCo's for core
 // pairs (coreContacts) between collision and the constraint rows
 static void fwdPosition(ostContext* c, const mjModel* mo, mjData* d) {
+  if (!c->corepairs.s.npair && !c->opt.convex_distance) {
+    mj_fwdPosition(mo, d);
+    return;
+  }
   mj_kinematics(mo, d);
   mj_comPos(mo, d);
   mj_camlight(mo, d);
@@ -212,7 +216,9 @@ static void fwdPosition(ostContext* c, const mjModel* mo, mjData* d) {
   mj_crb(mo, d);
   mj_factorM(mo, d);
   mj_collision(mo, d);
-  ost_refineConvexContacts(mo, d);
+  if (c->opt.convex_distance) {
+    ost_refineConvexContacts(mo, d);
+  }
   coreContacts(c, mo, d);
   mj_makeConstraint(mo, d);
   mj_projectConstraint(mo, d);

@@ -353,7 +353,9 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
   mj_tendon(m, d);
   mj_transmission(m, d);
   mj_collision(m, d);
-  ost_refineConvexContacts(m, d);
+  if (c->opt.convex_distance) {
+    ost_refineConvexContacts(m, d);
+  }
   // MuJoCo's rows for equalities and joint limits only: the contacts get Ostrich's own rows
   // below, so MuJoCo's contact rows (a pyramid or cone Jacobian per contact) are not built
   int ncon = d->ncon;

@@ -128,6 +128,11 @@ typedef struct ostOptions_ {
   int    cold_retry;              // 1: a Newton loop that fails from its warm start is
                                   // redone once from a cold start (u-, no carried forces)
                                   // before its step is split; 0: split at once       (1)
+  int    convex_distance;         // 1: contacts of MuJoCo's general convex collision (MPR:
+                                  // meshes, ellipsoids, most cylinder pairs) carry their
+                                  // true distance inside the look-ahead, found by bisection
+                                  // (mujoco provider; core/README.md section 4); 0: MuJoCo's
+                                  // distance of the shapes inflated by the look-ahead  (0)
 } ostOptions;
 
 typedef enum ostGeometry_ {       // geometry providers (option `geometry`)

@@ -5,8 +5,9 @@
 // free bodies in contact (MuJoCo's humanoid: quaternions, contacts, fixed tendons, motors),
 // spatial tendons wrapping cylinders with muscles (MuJoCo's arm26: wrap points, actuator
 // moments), and a mocap body. Contacts of the pairs core collides itself (box-box here) are
-// published as core's, with MuJoCo's contact parameters, in place of MuJoCo 2.2.2's own, and the
-// contacts of MuJoCo's general convex collision with their true distances.
+// published as core's, with MuJoCo's contact parameters, in place of MuJoCo 2.2.2's own, and,
+// with the option convex_distance, the contacts of MuJoCo's general convex collision with their
+// true distances.
 #include <math.h>
 #include <stddef.h>
 #include <stdio.h>
@@ -218,8 +219,9 @@ END_TEST
 // two convex meshes 0.195 mm apart (a bar fixed in the world, a free wedge; no gravity): inside
 // Ostrich's 1 cm look-ahead MuJoCo 2.2.2's convex collision (MPR on both shapes inflated by half
 // the margin) reports them 2.2 mm deep. Ostrich's rows and published contact carry their true
-// distance (ost_refineConvexContacts), so the step removes no phantom penetration and the wedge,
-// on which no force acts, stays at rest.
+// distance with the option convex_distance (ost_refineConvexContacts), so the step removes no
+// phantom penetration and the wedge, on which no force acts, stays at rest; without it (the
+// default) the step pushes the wedge out of a penetration that is not there.
 static const char* convex_scene =
   "<mujoco><option gravity='0 0 0' timestep='0.01'/><asset>"
   "<mesh name='bar' vertex='-.06 -.01 -.01 .06 -.01 -.01 -.06 .01 -.01 .06 .01 -.01 -.06 -.01 .01"
@@ -333,34 +335,51 @@ START_TEST(test_convexContacts) {
   ost_fixtureSetup();
   mjModel* m = ost_fixtureLoadString(convex_scene);
   mjData* d = mj_makeData(m);
-  mj_forward(m, d);
   int bar = mj_name2id(m, mjOBJ_GEOM, "bar"), wedge = mj_name2id(m, mjOBJ_GEOM, "wedge");
-  double truth = polytopeDistance(m, d, bar, wedge);
-  // the case this fixes: MuJoCo's convex collision at the look-ahead margin is 2 mm off
-  mjContact raw;
-  ck_assert_int_eq(mjCOLLISIONFUNC[mjGEOM_MESH][mjGEOM_MESH](m, d, &raw, bar, wedge, 0.01), 1);
-  ck_assert_double_gt(fabs(raw.dist - truth), 1e-3);
-  ck_assert_int_eq(ost_step(m, d), OST_OK);
-  const ostStats* st = ost_stats(d);
-  ck_assert_int_eq(st->status & OST_DEPENETRATED, 0);
-  ck_assert_double_eq(st->initial_violation, 0);
-  double speed = 0;
-  for (int j = 0; j < m->nv; j++) speed = fmax(speed, fabs(d->qvel[j]));
-  int found = 0;
-  double dist = HUGE_VAL;
-  for (int i = 0; i < d->ncon; i++) {
-    const mjContact* con = d->contact + i;
-    if ((con->geom1 == bar && con->geom2 == wedge) || (con->geom1 == wedge && con->geom2 == bar)) {
-      found++;
-      dist = con->dist;
+  for (int on = 0; on < 2; on++) {
+    mj_resetData(m, d);
+    mj_forward(m, d);
+    double truth = polytopeDistance(m, d, bar, wedge);
+    // the case this fixes: MuJoCo's convex collision at the look-ahead margin is 2 mm off
+    mjContact raw;
+    ck_assert_int_eq(mjCOLLISIONFUNC[mjGEOM_MESH][mjGEOM_MESH](m, d, &raw, bar, wedge, 0.01), 1);
+    ck_assert_double_gt(fabs(raw.dist - truth), 1e-3);
+    ostOptions opt;
+    ck_assert_int_eq(ost_readOptions(m, &opt, NULL, 0), OST_OK);
+    ck_assert_int_eq(opt.convex_distance, 0);  // the default
+    opt.convex_distance = on;
+    ck_assert_int_eq(ost_setOptions(m, d, &opt), OST_OK);
+    ck_assert_int_eq(ost_step(m, d), OST_OK);
+    const ostStats* st = ost_stats(d);
+    double speed = 0;
+    for (int j = 0; j < m->nv; j++) speed = fmax(speed, fabs(d->qvel[j]));
+    int found = 0;
+    double dist = HUGE_VAL;
+    for (int i = 0; i < d->ncon; i++) {
+      const mjContact* con = d->contact + i;
+      if ((con->geom1 == bar && con->geom2 == wedge)
+          || (con->geom1 == wedge && con->geom2 == bar)) {
+        found++;
+        dist = con->dist;
+      }
+    }
+    printf("convex meshes, convex_distance %d: true distance %.6g m, MuJoCo's MPR at the "
+           "look-ahead %.6g m, published %.6g m; initial violation %.3g m, wedge speed after a "
+           "step %.3g\n", on, truth, raw.dist, dist, st->initial_violation, speed);
+    ck_assert_int_eq(found, 1);
+    if (on) {
+      ck_assert_msg(fabs(dist - truth) < 1e-7, "published distance %g, true %g", dist, truth);
+      ck_assert_int_eq(st->status & OST_DEPENETRATED, 0);
+      ck_assert_double_eq(st->initial_violation, 0);
+      // nothing touches and nothing acts: only the FB smoothing's force (~1e-12 N) remains
+      ck_assert_double_lt(speed, 1e-9);
+    } else {
+      // MuJoCo's distance: a phantom penetration of 2.2 mm, removed within the step (it is
+      // below h depenetration_speed / 2), which throws the wedge off at over 1 m/s
+      ck_assert_double_lt(dist, 1e-6);
+      ck_assert_double_gt(speed, 0.1);
     }
   }
-  printf("convex meshes: true distance %.6g m, MuJoCo's MPR at the look-ahead %.6g m, published "
-         "%.6g m; wedge speed after a step %.3g\n", truth, raw.dist, dist, speed);
-  ck_assert_int_eq(found, 1);
-  ck_assert_msg(fabs(dist - truth) < 1e-7, "published distance %g, true %g", dist, truth);
-  // nothing touches and nothing acts: only the FB smoothing's force (~1e-12 N) remains
-  ck_assert_double_lt(speed, 1e-9);
   mj_deleteData(d);
   mj_deleteModel(m);
 }
