@@ -16,6 +16,7 @@
 #include <mujoco/mjxmacro.h>
 
 #include "fixture.h"
+#include "ost_collision_mpr.h"
 #include "ost_internal.h"
 
 #define HUMANOID "/usr/share/mujoco/model/humanoid/humanoid.xml"
@@ -231,42 +232,6 @@ static const char* convex_scene =
   "<body pos='0.1327 -0.0075 -0.0291' quat='0.19493 0.00526 -0.70943 0.67726'><freejoint/>"
   "<geom name='wedge' type='mesh' mesh='wedge'/></body></worldbody></mujoco>";
 
-// closest point to p on triangle abc (Ericson, Real-Time Collision Detection, 5.1.5)
-static void closestOnTriangle(const double p[3], const double a[3], const double b[3],
-                              const double c[3], double out[3]) {
-  double ab[3], ac[3], ap[3], bp[3], cp[3];
-  mju_sub3(ab, b, a);
-  mju_sub3(ac, c, a);
-  mju_sub3(ap, p, a);
-  double d1 = mju_dot3(ab, ap), d2 = mju_dot3(ac, ap);
-  if (d1 <= 0 && d2 <= 0) { mju_copy3(out, a); return; }
-  mju_sub3(bp, p, b);
-  double d3 = mju_dot3(ab, bp), d4 = mju_dot3(ac, bp);
-  if (d3 >= 0 && d4 <= d3) { mju_copy3(out, b); return; }
-  double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) {
-    mju_addScl3(out, a, ab, d1 / (d1 - d3));
-    return;
-  }
-  mju_sub3(cp, p, c);
-  double d5 = mju_dot3(ab, cp), d6 = mju_dot3(ac, cp);
-  if (d6 >= 0 && d5 <= d6) { mju_copy3(out, c); return; }
-  double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) {
-    mju_addScl3(out, a, ac, d2 / (d2 - d6));
-    return;
-  }
-  double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) {
-    double bc[3];
-    mju_sub3(bc, c, b);
-    mju_addScl3(out, b, bc, (d4 - d3) / ((d4 - d3) + (d5 - d6)));
-    return;
-  }
-  double den = 1 / (va + vb + vc);
-  for (int k = 0; k < 3; k++) out[k] = a[k] + ab[k] * vb * den + ac[k] * vc * den;
-}
-
 // distance of segments p1q1 and p2q2 (Ericson 5.1.9)
 static double segmentDistance(const double p1[3], const double q1[3], const double p2[3],
                               const double q2[3]) {
@@ -313,9 +278,10 @@ static double polytopeDistance(const mjModel* m, const mjData* d, int g1, int g2
     for (int f = 0; f < m->mesh_facenum[id]; f++) {
       const int* tri = m->mesh_face + 3 * (m->mesh_faceadr[id] + f);
       for (int i = 0; i < m->mesh_vertnum[io]; i++) {
-        double q[3];
-        closestOnTriangle(v[o][i], v[s][tri[0]], v[s][tri[1]], v[s][tri[2]], q);
-        best = fmin(best, mju_dist3(q, v[o][i]));
+        // core's point-triangle distance (libccd's, as MPR uses it) from the vertex as origin
+        double x[3][3], w[3];
+        for (int k = 0; k < 3; k++) mju_sub3(x[k], v[s][tri[k]], v[o][i]);
+        best = fmin(best, sqrt(osti_mprTriDist2(x[0], x[1], x[2], w)));
       }
       for (int f2 = 0; s == 0 && f2 < m->mesh_facenum[io]; f2++) {
         const int* tri2 = m->mesh_face + 3 * (m->mesh_faceadr[io] + f2);
