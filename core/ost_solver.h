@@ -166,6 +166,9 @@ typedef struct ostWorld_ {        // one world: sizes and pointers into one allo
                                   // NULL: none (they need yrow)
   int    op_version;              // counts osti_evaluate calls: the Schur operator (rows, J,
                                   // c) a kept envelope factor belongs to
+  int    sat_used;                // 1: the last direction used the saturated-sticking model
+  int    sat_off;                 // 1: the next direction keeps the sticking model (the last
+                                  // saturated direction found no descent; osti_newton)
 #define X(type, name, r, c) type* name;
   OST_WORLD_ARRAYS(X)
 #undef X
@@ -226,6 +229,7 @@ OST_HD void ostu_worldInitFor(ostWorld* w, void* buf, int nv, int ncol, int nrow
   w->yrow = NULL;
   w->env = NULL;
   w->op_version = 0;
+  w->sat_used = w->sat_off = 0;
 #define X(type, name, r, c)                                         \
   w->name = (size_t)(r) * (size_t)(c) != 0 ? (type*)p : NULL;       \
   p += (((size_t)(r) * (c) * sizeof(type) + 63) / 64) * 64;
@@ -432,6 +436,10 @@ OST_HD void osti_rowCopy(ostWorld* w, ostNum* Jdst, int* nnz_dst, int* ind_dst, 
 
 // compliance factor of a row whose force is fixed (its Newton update is dlambda = target - lambda)
 #define OST_FIXED_ROW 1e12
+// relative excess of |lambda_f|^2 over its cone's bound^2 that osti_saturateSticking acts on
+#define OST_SATURATE_SLACK 1e-6
+// a sticking contact is saturated when |lambda_f|^2 >= (1 - this) (mu lambda_n)^2
+#define OST_SATURATED_ON_CONE 1e-6
 
 
 // Jacobi diagonal entry of row i, J_i Mt^-1 J_i', kept positive for the divisions that use it
@@ -532,6 +540,46 @@ OST_HD void osti_reflectFriction(ostWorld* w, int a, int n, const ostNum* H) {
 }
 
 
+// the sliding model of contact i's nf friction rows (osti_frictionRows) for the slip-frame vector
+// z (|z| = zn > 0): rows reflected into the frame of e = z / |z|, the force along e pinned to
+// the cone bound, the rows across e with the weight W = c_s + k_f (1 - beta) / beta,
+// beta = bound / zn. Returns the squared merit of the rows (velocity units).
+OST_HD ostNum osti_slideRows(ostWorld* w, int i, int nf, ostNum kf, ostNum cs, ostNum bound,
+                             const ostNum* z, ostNum zn) {
+  int a = i + 1;
+  ostNum H[OST_MAXFRIC * OST_MAXFRIC];
+  w->W[i] = 1;
+  for (int k = 0; k < nf; k++) {
+    w->W[a + k] = z[k] / zn;
+  }
+  osti_householder(H, w->W + a, nf);
+  osti_reflectFriction(w, a, nf, H);
+  ostNum lam[OST_MAXFRIC] = {0};
+  for (int k = 0; k < nf; k++) {
+    osti_rowDiag(w, a + k);
+    lam[k] = w->lambda[a + k];
+  }
+  osti_reflect(w->Ju + a, H, nf);
+  osti_reflect(lam, H, nf);  // lam[0] along the slip, the others across it
+  ostNum mpar = kf * (lam[0] - bound), m2 = mpar * mpar;
+  w->c[a] = kf * OST_FIXED_ROW;
+  w->rho[a] = mpar * OST_FIXED_ROW;
+  ostNum beta = bound / zn;
+  for (int k = 1; k < nf; k++) {
+    ostNum mperp = kf * lam[k];
+    if (beta * (OST_FIXED_ROW + 1) > 1) {
+      w->c[a + k] = cs + kf * (1 - beta) / beta;
+      w->rho[a + k] = mperp / beta;
+    } else {
+      w->c[a + k] = kf * OST_FIXED_ROW;  // no normal force: the tangential force goes to zero
+      w->rho[a + k] = mperp * OST_FIXED_ROW;
+    }
+    m2 += mperp * mperp;
+  }
+  return m2;
+}
+
+
 // row forms of the nf friction rows i+1 .. i+nf of contact i (paper eq. 5-7), Coulomb friction
 // by maximal dissipation written as Alart-Curnier's semismooth equation
 //   G = lambda_f - proj_{|.| <= mu lambda_n}(z),   z = lambda_f - (s + c_s lambda_f) / k_f
@@ -572,36 +620,7 @@ OST_HD ostNum osti_frictionRows(ostWorld* w, int i, int nf, ostNum reg, ostNum c
     }
     return m2;
   }
-  ostNum H[OST_MAXFRIC * OST_MAXFRIC];
-  w->W[i] = 1;
-  for (int k = 0; k < nf; k++) {
-    w->W[a + k] = z[k] / zn;  // zn > bound >= 0
-  }
-  osti_householder(H, w->W + a, nf);
-  osti_reflectFriction(w, a, nf, H);
-  ostNum lam[OST_MAXFRIC] = {0};
-  for (int k = 0; k < nf; k++) {
-    osti_rowDiag(w, a + k);
-    lam[k] = w->lambda[a + k];
-  }
-  osti_reflect(w->Ju + a, H, nf);
-  osti_reflect(lam, H, nf);  // lam[0] along the slip, the others across it
-  ostNum mpar = kf * (lam[0] - bound), m2 = mpar * mpar;
-  w->c[a] = kf * OST_FIXED_ROW;
-  w->rho[a] = mpar * OST_FIXED_ROW;
-  ostNum beta = bound / zn;
-  for (int k = 1; k < nf; k++) {
-    ostNum mperp = kf * lam[k];
-    if (beta * (OST_FIXED_ROW + 1) > 1) {
-      w->c[a + k] = cs + kf * (1 - beta) / beta;
-      w->rho[a + k] = mperp / beta;
-    } else {
-      w->c[a + k] = kf * OST_FIXED_ROW;  // no normal force: the tangential force goes to zero
-      w->rho[a + k] = mperp * OST_FIXED_ROW;
-    }
-    m2 += mperp * mperp;
-  }
-  return m2;
+  return osti_slideRows(w, i, nf, kf, cs, bound, z, zn);  // zn > bound >= 0
 }
 
 
@@ -714,6 +733,55 @@ OST_HD ostNum osti_immobileRows(ostWorld* w, int i, int nf, ostNum kf) {
 // 2.5e-11 m at 0.5 ms); such a step is no exact solution anyway (OST_DEPENETRATED, its gradient
 // refused). Steps without a violation at their start keep `regularization`.
 #define OST_RELAX_REG 1e-4
+
+// the Newton model of saturated sticking, a primal-dual active-set correction of eq. (7): a
+// contact classed sticking (|z| <= mu lambda_n) whose direction asks for a friction force
+// outside its cone, |lambda_f + dlambda_f| > mu (lambda_n + dlambda_n), is not sticking at the
+// next iterate. The line search then projects that force back onto the cone, the dynamics
+// residual grows in proportion to the step, and Newton crawls toward the same target for many
+// iterates (a humanoid's light foot contact: 10-28 iterates a step). Such a contact gets the
+// projection's Jacobian at the cone instead (beta = 1 in osti_frictionRows' slide branch): in
+// the frame of the predicted force e, the force along e is pinned to the cone, moving with
+// lambda_n (osti_newtonApplySet), and the rows across e keep the sticking model. Only the
+// Newton model changes; residual and merit stay eq. (7)'s. Returns the number of contacts
+// changed (their direction must be solved again).
+OST_HD int osti_saturateSticking(ostWorld* w, const ostSolverOptions* opt) {
+  int nrow = w->nrow, changed = 0;
+  for (int i = 0; i + 2 < nrow; i++) {
+    if (w->rows[i].type != OST_ROW_CONTACT || w->W[i] != 0 || !(w->lambda[i] > 0)
+        || (w->nisland && w->isl_done[w->row_island[i]])) {
+      continue;
+    }
+    int nf = osti_frictionCount(w->rows, nrow, i), a = i + 1;
+    if (nf == 0 || osti_contactImmobile(w, i, osti_frictionDiagMax(w, i, nf))) {
+      continue;
+    }
+    ostNum ln = w->lambda[i] + w->dlambda[i], f[OST_MAXFRIC], fn2 = 0, l2 = 0;
+    for (int k = 0; k < nf; k++) {
+      f[k] = w->lambda[a + k] + w->dlambda[a + k];
+      fn2 += f[k] * f[k];
+      l2 += w->lambda[a + k] * w->lambda[a + k];
+    }
+    ostNum bound = w->rows[i].mu * w->lambda[i], bound_next = w->rows[i].mu * (ln > 0 ? ln : 0);
+    if (l2 < bound * bound * (1 - OST_SATURATED_ON_CONE)) {
+      continue;  // not saturated: its force is inside the cone
+    }
+    ostNum b = bound > bound_next ? bound : bound_next;
+    if (!(fn2 > b * b * (1 + OST_SATURATE_SLACK))) {
+      continue;
+    }
+    ostNum kf = 0;
+    for (int k = 0; k < nf; k++) {
+      kf += w->diag[a + k];
+    }
+    kf = w->h * kf / nf;
+    ostNum cs = opt->reg * kf + opt->creep;
+    osti_slideRows(w, i, nf, kf, cs, bound, f, sqrt(fn2));
+    changed++;
+  }
+  return changed;
+}
+
 
 // evaluate the iterate (qvel, lambda) with the rows and J filled for q(qvel): fills
 // Minv_rdyn, diag, Ju and the row form (c, rho); returns the squared merit residual
@@ -1355,6 +1423,18 @@ OST_HD int osti_directionSolve(ostWorld* w, const ostSolverOptions* opt, const o
 }
 
 
+// the Newton direction (dqvel, dlambda) of the evaluated iterate, solved again with the model of
+// saturated sticking where osti_saturateSticking changed a contact's rows (unless sat_off)
+OST_HD int osti_directionSaturated(ostWorld* w, const ostSolverOptions* opt) {
+  int it = osti_directionSolve(w, opt, w->Minv_rdyn, w->rho, w->dlambda, w->dqvel);
+  w->sat_used = !w->sat_off && osti_saturateSticking(w, opt);
+  if (w->sat_used) {
+    it += osti_directionSolve(w, opt, w->Minv_rdyn, w->rho, w->dlambda, w->dqvel);
+  }
+  return it;
+}
+
+
 // after the direction (dqvel, dlambda): dlambda and J are rotated back from slip frames to
 // contact frames. The iterate becomes the base of the step: its u, rows and multipliers are
 // kept for osti_trial and for matching multipliers onto the rows of the next iterate.
@@ -1392,7 +1472,7 @@ OST_HD void osti_directionFinish(ostWorld* w) {
 // when sliding friction makes it non-symmetric), islands marked done (isl_done) get none; then
 // du by back-substitution, zero on done islands (osti_directionSolve, then osti_directionFinish)
 OST_HD int osti_newtonDirection(ostWorld* w, const ostSolverOptions* opt) {
-  int it = osti_directionSolve(w, opt, w->Minv_rdyn, w->rho, w->dlambda, w->dqvel);
+  int it = osti_directionSaturated(w, opt);
   osti_directionFinish(w);
   return it;
 }

@@ -181,14 +181,14 @@ OST_HD int osti_newtonDirectionGeom(ostWorld* w, const ostSolverOptions* so, ost
     ostSolverOptions inner = *so;
     inner.pcr_iter *= OST_GEO_PCR;
     int evals = w->geo->evals;
-    int it = osti_directionSolve(w, &inner, w->Minv_rdyn, w->rho, w->dlambda, w->dqvel);
+    int it = osti_directionSaturated(w, &inner);
     it += osti_geoDirection(w, &inner, geom, ctx);
     st->geometry_evals += w->geo->evals - evals;
     osti_directionFinish(w);
     return it;
   }
 #endif
-  int it = osti_directionSolve(w, so, w->Minv_rdyn, w->rho, w->dlambda, w->dqvel);
+  int it = osti_directionSaturated(w, so);
   osti_directionFinish(w);
   return it;
 }
@@ -236,12 +236,15 @@ OST_HD int osti_islandLineSearch(ostWorld* w, const ostSolverOptions* so, int li
       all = 0;
     }
     if (all) {
+      w->sat_off = 0;
       return 0;
     }
     for (int I = 0; I < nb && ls < linesearch; I++) {
       if (!w->isl_acc[I]) OST_ISL_ALPHA(w, I) *= 0.5;
     }
   }
+  // a saturated direction that found no descent in some island: the next keeps sticking
+  w->sat_off = w->sat_used;
   int redo = 0;
   for (int I = 0; I < nb; I++) {
     if (!w->isl_acc[I]) {
@@ -296,6 +299,7 @@ OST_HD int osti_newton(ostWorld* w, const ostSolverOptions* so, int linesearch, 
   st->initial_violation = 0;
   w->nrow_relax = 0;
   w->nisland = 0;
+  w->sat_used = w->sat_off = 0;
   osti_islandsStart(w);
   for (k = 0; k <= so->newton_iter; k++) {
     if (k == 0) {
@@ -323,7 +327,9 @@ OST_HD int osti_newton(ostWorld* w, const ostSolverOptions* so, int linesearch, 
           alpha_lowest = alpha;
         }
       }
-      if (!(merit < (1 - 1e-4 * alpha_last) * base) && alpha_lowest != alpha_last) {
+      int descent = merit < (1 - 1e-4 * alpha_last) * base;
+      w->sat_off = !descent && w->sat_used;  // the next direction keeps the sticking model
+      if (!descent && alpha_lowest != alpha_last) {
         status = osti_trialIterate(w, so, alpha_lowest, geom, ctx, &merit, st);
       }
     }
