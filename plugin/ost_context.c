@@ -40,6 +40,7 @@ static void freeContext(ostContext* c) {
   free(c->native_block);
   free(c->corepairs_block);
   free(c->hfield_data);
+  free(c->mesh_vert);
   free(c->sync_range);
   free(c->sync_shadow);
   free(c->kin_buf);

@@ -114,6 +114,8 @@ typedef struct ostContext_ {
   void*          corepairs_block; // their arrays (ost_packCorePairs)
   ostNum*        hfield_data;     // the model's height-field data as ostNum (nhfielddata)
   int            hfield_n;        // its length
+  ostNum*        mesh_vert;       // the model's mesh vertices as ostNum (3 nmeshvert)
+  int            mesh_n;          // its length
   void*          kin_buf;         // its kinematics' single allocation
   ostKin         kin;             // native kinematics, pointers into kin_buf
   ostWorld       world;           // core solver state, pointers into world_buf
@@ -168,9 +170,16 @@ int ost_capacityFail(ostContext* c, const char* what, int cap);
 // kinematics and collision on the private model (the `mujoco` geometry provider)
 int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h);
 
-// the contacts of d from MuJoCo's general convex collision (MPR) with their true distance
-// within the margin (bisection on MPR's exact intersection test) instead of MPR's inflated depth
-void ost_refineConvexContacts(const mjModel* m, mjData* d);
+// the contacts of d from MuJoCo's general convex collision (MPR) with their true distance (GJK
+// on separated geoms) instead of MPR's inflated depth; mesh_vert from ost_meshData
+void ost_refineConvexContacts(const mjModel* m, mjData* d, const ostNum* mesh_vert);
+
+// a contact frame from its unit normal frame[0:3]: the tangents frame[3:9] as
+// MuJoCo 2.2.2's mj_collision makes them after a collision function returned the normal
+void ost_contactFrame(mjtNum frame[9]);
+
+// m's mesh vertices as ostNum in *buf (3 nmeshvert), reallocated when the size changed
+int ost_meshData(const mjModel* m, ostNum** buf, int* n);
 
 // tendon t's Jacobian row of d into the dense row J (nv), whether MuJoCo stores it sparse or not
 void ost_tendonRow(const mjModel* m, const mjData* d, int t, mjtNum* J);

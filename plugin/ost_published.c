@@ -217,7 +217,7 @@ static void fwdPosition(ostContext* c, const mjModel* mo, mjData* d) {
   mj_factorM(mo, d);
   mj_collision(mo, d);
   if (c->opt.convex_distance) {
-    ost_refineConvexContacts(mo, d);
+    ost_refineConvexContacts(mo, d, c->mesh_vert);
   }
   coreContacts(c, mo, d);
   mj_makeConstraint(mo, d);

@@ -10,6 +10,7 @@
 
 #include "ost_collision_boxbox.h"
 #include "ost_collision_cylbox.h"
+#include "ost_collision_gjk.h"
 #include "ost_collision_terrain.h"
 #include "ost_internal.h"
 
@@ -244,6 +245,22 @@ int ost_hfieldData(const mjModel* m, ostNum** buf, int* n) {
 }
 
 
+int ost_meshData(const mjModel* m, ostNum** buf, int* n) {
+  if (*n != 3 * m->nmeshvert) {
+    free(*buf);
+    *buf = m->nmeshvert ? malloc(3 * (size_t)m->nmeshvert * sizeof(ostNum)) : NULL;
+    *n = *buf ? 3 * m->nmeshvert : 0;
+    if (m->nmeshvert && !*buf) {
+      return OST_ERR_MEMORY;
+    }
+  }
+  for (int i = 0; i < *n; i++) {
+    (*buf)[i] = m->mesh_vert[i];
+  }
+  return OST_OK;
+}
+
+
 int ost_collideCorePair(const mjModel* m, const mjData* d, const ostNum* hfield_data, int g1,
                         int g2, ostNum margin, ostContact* con) {
   ostGeom a, b;
@@ -292,18 +309,34 @@ int ost_collideCorePair(const mjModel* m, const mjData* d, const ostNum* hfield_
 }
 
 
+void ost_contactFrame(mjtNum frame[9]) {
+  // the first tangent: e_y, or e_z where the normal is within 60 degrees of e_y, made
+  // orthogonal to the normal; the second: normal x first
+  mjtNum* t1 = frame + 3;
+  mju_zero3(t1);
+  t1[fabs(frame[1]) < 0.5 ? 1 : 2] = 1;
+  mjtNum along[3];
+  mju_scl3(along, frame, mju_dot3(frame, t1));
+  mju_subFrom3(t1, along);
+  mju_normalize3(t1);
+  mju_cross(frame + 6, frame, t1);
+}
+
+
 // MuJoCo 2.2.2's general convex collision (mjc_Convex: MPR on both geoms inflated by margin/2)
-// reports dist = margin - depth, and MPR's depth of the inflated shapes is not their true overlap
+// reports dist = margin - depth, and MPR's depth of the inflated shapes is not their true gap
 // where their nearest features are not aligned with its search direction: inside the look-ahead,
-// meshes 0.2 mm apart came out 2 mm deep, and a quadruped's chassis and leg
-// meshes 0.97 mm apart 0.2 mm deep (compare/results/menagerie.md, Barkour). MPR's intersection
-// test is exact for convex shapes, so the distance d of two separated geoms is the smallest margin
-// at which it reports a contact: found by bisection to OST_CONVEX_TOL, the contact's point and
-// normal then taken from MPR at that margin (the shapes inflated just enough to touch). Geoms that
-// overlap keep MPR's contact without inflation (margin 0), which is stock MuJoCo's own at a zero
-// margin. Pairs with several contacts (MuJoCo's multiCCD, off by default) are left as they are.
-#define OST_CONVEX_TOL 1e-8  // m: the bisection's bracket on the distance
-void ost_refineConvexContacts(const mjModel* m, mjData* d) {
+// meshes 0.2 mm apart came out 2 mm deep, and a quadruped's chassis and leg meshes 0.97 mm apart
+// 0.2 mm deep (compare/results/menagerie.md, Barkour). Pairs that MPR's intersection test finds
+// apart at margin 0 get their distance, witness points and normal from GJK
+// (core/ost_collision_gjk.h): dist = |b - a|, pos = (a + b)/2, normal (b - a)/dist from geom1 to
+// geom2, so the gap and its normal agree to first order, and the tangents MuJoCo would make
+// (ost_contactFrame). Overlapping pairs keep MuJoCo's contact: inflating both shapes by margin/2
+// deepens an overlap by exactly the margin, and a depth re-measured at margin 0 (MPR's, good to
+// mpr_tolerance) or along MPR's normal (not the face normal of resting faces) made resting
+// contacts stall. Pairs with several contacts (MuJoCo's multiCCD, off by default) are left as
+// they are. mesh_vert: the model's mesh vertices as ostNum (ost_meshData).
+void ost_refineConvexContacts(const mjModel* m, mjData* d, const ostNum* mesh_vert) {
   mjfCollision convex = mjCOLLISIONFUNC[mjGEOM_MESH][mjGEOM_MESH];  // mjc_Convex
   if (mjENABLED(mjENBL_MULTICCD)) {
     return;
@@ -315,27 +348,29 @@ void ost_refineConvexContacts(const mjModel* m, mjData* d) {
       continue;
     }
     mjContact t;
-    mjtNum hi = mju_max(m->geom_margin[g1], m->geom_margin[g2]), lo = 0;
     if (convex(m, d, &t, g1, g2, 0) == 1) {
-      hi = 0;  // overlapping: MPR's depth of the shapes themselves
-    } else if (convex(m, d, &t, g1, g2, hi) != 1) {
-      continue;  // found at another margin (an explicit <pair>'s): left as MuJoCo made it
-    } else {
-      // no contact at lo, one at hi: the distance lies in [lo, hi]
-      while (hi - lo > OST_CONVEX_TOL) {
-        mjtNum mid = 0.5 * (lo + hi);
-        if (convex(m, d, &t, g1, g2, mid) == 1) {
-          hi = mid;
-        } else {
-          lo = mid;
-        }
-      }
-      convex(m, d, &t, g1, g2, hi);
-      t.dist = hi;
+      continue;  // overlapping: MuJoCo's contact of the inflated shapes stands
     }
-    con->dist = t.dist;
-    mju_copy3(con->pos, t.pos);
-    mju_copy(con->frame, t.frame, 9);
+    ostGeom g[2];
+    ostNum dist, pa[3], pb[3];
+    for (int k = 0; k < 2; k++) {
+      int gk = k ? g2 : g1;
+      placedGeom(m, d, gk, g + k);
+      if (m->geom_type[gk] == mjGEOM_MESH) {
+        int id = m->geom_dataid[gk];
+        g[k].nvert = m->mesh_vertnum[id];
+        g[k].vert = mesh_vert + 3 * (size_t)m->mesh_vertadr[id];
+      }
+    }
+    if (!osti_gjkDistance(g, g + 1, &dist, pa, pb) || !(dist > 0)) {
+      continue;  // touching within GJK's tolerance: MuJoCo's contact stands
+    }
+    con->dist = dist;
+    for (int k = 0; k < 3; k++) {
+      con->pos[k] = 0.5 * (pa[k] + pb[k]);
+      con->frame[k] = (pb[k] - pa[k]) / dist;
+    }
+    ost_contactFrame(con->frame);
   }
 }
 
@@ -354,7 +389,7 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
   mj_transmission(m, d);
   mj_collision(m, d);
   if (c->opt.convex_distance) {
-    ost_refineConvexContacts(m, d);
+    ost_refineConvexContacts(m, d, c->mesh_vert);
   }
   // MuJoCo's rows for equalities and joint limits only: the contacts get Ostrich's own rows
   // below, so MuJoCo's contact rows (a pyramid or cone Jacobian per contact) are not built

@@ -126,7 +126,8 @@ static int prepareSynced(ostContext* c, const mjModel* m, int changed) {
   if (c->opt.geometry == OST_GEOMETRY_NATIVE) {
     status = ost_nativeReady(c, m);
   } else if (ost_packCorePairs(c->mo, &c->corepairs, &c->corepairs_block)
-             || ost_hfieldData(c->mo, &c->hfield_data, &c->hfield_n)) {
+             || ost_hfieldData(c->mo, &c->hfield_data, &c->hfield_n)
+             || ost_meshData(c->mo, &c->mesh_vert, &c->mesh_n)) {
     // the mujoco provider collides core pairs with core's functions (ost_rows_mujoco.c)
     status = ost_fail(c, OST_ERR_MEMORY, "cannot allocate the core pair list");
   }

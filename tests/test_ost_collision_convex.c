@@ -5,6 +5,7 @@
 // random poses, penetrating and separated within the margin.
 #define _GNU_SOURCE  // drand48, mkstemps, fdopen, M_PI
 #include "ost_collision_convex.h"
+#include "ost_collision_gjk.h"
 
 #include <check.h>
 #include <math.h>
@@ -167,6 +168,64 @@ START_TEST(test_mpr_vs_libccd) {
   }
   printf("MPR vs libccd: %d cases (%d penetrating); max |err| depth %.3g dir %.3g pos %.3g\n",
          ncase, nhit, emax[0], emax[1], emax[2]);
+}
+END_TEST
+
+
+// GJK's distance of random separated pairs of every convex type, certified two ways:
+// (1) duality: the witness points a, b lie in the shapes (convex combinations of support points),
+//     so |a - b| bounds the distance from above, and the gap of the supports along n = (b - a)/d,
+//     n.s2(-n) - n.s1(n), bounds it from below; the two must meet;
+// (2) MPR's intersection test (ccdMPRPenetration's discovery, a different algorithm, exact up to
+//     its tolerance): the shapes inflated by margin/2 each overlap when margin exceeds the
+//     distance and not when it falls short of it.
+START_TEST(test_gjk_distance) {
+  const int types[6] = {OST_GEOM_SPHERE, OST_GEOM_CAPSULE, OST_GEOM_ELLIPSOID, OST_GEOM_CYLINDER,
+                        OST_GEOM_BOX, OST_GEOM_MESH};
+  double gapmax = 0;
+  int nsep = 0, nover = 0;
+  srand48(3);
+  for (int t1 = 0; t1 < 6; t1++) {
+    for (int t2 = 0; t2 < 6; t2++) {
+      int sep = 0;
+      for (int rep = 0; rep < 200; rep++) {
+        ostGeom g1, g2;
+        double v1[96], v2[96], a[3], b[3], dist = NAN, depth, dir[3], pos[3];
+        randGeom(&g1, types[t1], v1);
+        randGeom(&g2, types[t2], v2);
+        g2.pos[0] += urand(0, 1.2);  // separated in about half of the cases
+        int r = osti_gjkDistance(&g1, &g2, &dist, a, b);
+        if (r == 0) {
+          // touching or overlapping: MPR agrees at a margin of 0.1 um
+          ck_assert_int_eq(osti_mprPenetration(&g1, &g2, 1e-7, 1e-6, 50, &depth, dir, pos), 0);
+          nover++;
+          continue;
+        }
+        sep++;
+        double ab[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+        ck_assert_double_eq_tol(sqrt(mju_dot3(ab, ab)), dist, 1e-12);
+        double n[3] = {ab[0] / dist, ab[1] / dist, ab[2] / dist}, mn[3] = {-n[0], -n[1], -n[2]};
+        double s1[3], s2[3];
+        osti_support(s1, &g1, n, 0);
+        osti_support(s2, &g2, mn, 0);
+        double gap = mju_dot3(n, s2) - mju_dot3(n, s1);
+        ck_assert_msg(gap <= dist + 1e-12 && dist - gap <= 1e-9,
+                      "types %d %d rep %d: distance %.12g, lower bound %.12g", types[t1],
+                      types[t2], rep, dist, gap);
+        gapmax = fmax(gapmax, dist - gap);
+        if (dist > 1e-4) {  // margins 10 um either side of it, 10 times MPR's tolerance
+          int hi = osti_mprPenetration(&g1, &g2, dist + 1e-5, 1e-6, 50, &depth, dir, pos);
+          int lo = osti_mprPenetration(&g1, &g2, dist - 1e-5, 1e-6, 50, &depth, dir, pos);
+          ck_assert_msg(hi == 0 && lo == 1, "types %d %d rep %d: distance %.9g, MPR %d %d",
+                        types[t1], types[t2], rep, dist, hi, lo);
+        }
+      }
+      ck_assert_msg(sep >= 20, "types %d %d: only %d separated cases", types[t1], types[t2], sep);
+      nsep += sep;
+    }
+  }
+  printf("GJK: %d separated pairs certified (largest gap between distance and its lower bound "
+         "%.3g m), %d touching or overlapping\n", nsep, gapmax, nover);
 }
 END_TEST
 
@@ -467,6 +526,7 @@ int main(void) {
   tcase_add_checked_fixture(tc, setup, NULL);
   tcase_set_timeout(tc, 60);
   tcase_add_test(tc, test_mpr_vs_libccd);
+  tcase_add_test(tc, test_gjk_distance);
   tcase_add_test(tc, test_cylinder_box);
   tcase_add_test(tc, test_convex_pairs);
   tcase_add_test(tc, test_mesh_pairs);

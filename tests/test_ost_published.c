@@ -352,6 +352,95 @@ START_TEST(test_convexContacts) {
 END_TEST
 
 
+// ost_contactFrame makes the tangents MuJoCo's mj_collision makes from a contact's normal: over
+// random poses of the convex scene's wedge (normals in every direction), bit for bit
+START_TEST(test_contactFrame) {
+  ost_fixtureSetup();
+  mjModel* m = ost_fixtureLoadString(convex_scene);
+  mjData* d = mj_makeData(m);
+  for (int g = 0; g < m->ngeom; g++) m->geom_margin[g] = 0.05;
+  srand48(5);
+  int ncon = 0, ny = 0;
+  for (int rep = 0; rep < 300; rep++) {
+    for (int k = 0; k < 3; k++) d->qpos[k] = 0.16 * (drand48() - 0.5);
+    double q[4];
+    for (int k = 0; k < 4; k++) q[k] = drand48() - 0.5;
+    mju_normalize4(q);
+    mju_copy4(d->qpos + 3, q);
+    mj_kinematics(m, d);
+    mj_comPos(m, d);
+    mj_collision(m, d);
+    for (int i = 0; i < d->ncon; i++) {
+      mjtNum f[9] = {0};
+      mju_copy3(f, d->contact[i].frame);
+      ost_contactFrame(f);
+      for (int k = 0; k < 9; k++) {
+        ck_assert_msg(f[k] == d->contact[i].frame[k], "pose %d contact %d entry %d: %.17g, "
+                      "MuJoCo %.17g", rep, i, k, f[k], d->contact[i].frame[k]);
+      }
+      ncon++;
+      ny += fabs(f[1]) >= 0.5;
+    }
+  }
+  printf("contact frames: %d of MuJoCo's (%d with the normal within 60 degrees of y) made alike\n",
+         ncon, ny);
+  ck_assert_int_gt(ny, 10);
+  ck_assert_int_gt(ncon - ny, 10);
+  mj_deleteData(d);
+  mj_deleteModel(m);
+}
+END_TEST
+
+
+// Coulomb friction on refined convex contacts: a mesh block (translating only: MuJoCo collides
+// two meshes at one point) resting on a mesh slab tilted by 20 degrees (mu = 1 > tan 20 deg =
+// 0.36) stays put with convex_distance 0 and 1. Its contact is found apart (by GJK) in some
+// iterates and overlapping (MuJoCo's) in others; a contact without its tangent rows would let
+// the block slide down at g sin 20 deg = 3.4 m/s^2 (0.3 m/s after 0.1 s).
+static const char* slope_scene =
+  "<mujoco><option timestep='0.01'/><asset>"
+  "<mesh name='slab' vertex='-.5 -.5 -.05 .5 -.5 -.05 -.5 .5 -.05 .5 .5 -.05 -.5 -.5 0 .5 -.5 0"
+  " -.5 .5 0 .5 .5 0'/>"
+  "<mesh name='block' vertex='-.05 -.05 -.05 .05 -.05 -.05 -.05 .05 -.05 .05 .05 -.05 -.05 -.05"
+  " .05 .05 -.05 .05 -.05 .05 .05 .05 .05 .05'/></asset><worldbody>"
+  "<geom type='mesh' mesh='slab' euler='0 20 0' friction='1'/>"
+  "<body pos='0.0171010 0 0.0469846' euler='0 20 0'><joint type='slide' axis='1 0 0'/>"
+  "<joint type='slide' axis='0 1 0'/><joint type='slide' axis='0 0 1'/>"
+  "<geom type='mesh' mesh='block' friction='1'/></body>"
+  "</worldbody></mujoco>";
+
+START_TEST(test_convexFriction) {
+  ost_fixtureSetup();
+  mjModel* m = ost_fixtureLoadString(slope_scene);
+  mjData* d = mj_makeData(m);
+  for (int on = 0; on < 2; on++) {
+    mj_resetData(m, d);
+    ostOptions opt;
+    ck_assert_int_eq(ost_readOptions(m, &opt, NULL, 0), OST_OK);
+    opt.convex_distance = on;
+    ck_assert_int_eq(ost_setOptions(m, d, &opt), OST_OK);
+    for (int k = 0; k < 10; k++) {
+      int status = ost_step(m, d);
+      ck_assert_msg(status == OST_OK, "convex_distance %d step %d: status %d, residual %g", on, k,
+                    status, ost_stats(d)->residual);
+    }
+    double speed = mju_norm3(d->qvel);
+    printf("block on a 20 degree slope, convex_distance %d: %.3g m/s after 0.1 s, %d contacts\n",
+           on, speed, d->ncon);
+    ck_assert_int_ge(d->ncon, 1);
+    for (int i = 0; i < d->ncon; i++) {
+      const mjtNum* f = d->contact[i].frame;  // an orthonormal frame around the normal
+      ck_assert_double_eq_tol(mju_dot3(f + 3, f + 3), 1, 1e-12);
+      ck_assert_double_eq_tol(mju_dot3(f, f + 3), 0, 1e-12);
+    }
+    ck_assert_double_lt(speed, 1e-3);
+  }
+  mj_deleteData(d);
+  mj_deleteModel(m);
+}
+END_TEST
+
+
 int main(void) {
   Suite* s = suite_create("ost_published");
   TCase* tc = tcase_create("published");
@@ -361,6 +450,8 @@ int main(void) {
   tcase_add_test(tc, test_mocap);
   tcase_add_test(tc, test_coreContacts);
   tcase_add_test(tc, test_convexContacts);
+  tcase_add_test(tc, test_contactFrame);
+  tcase_add_test(tc, test_convexFriction);
   suite_add_tcase(s, tc);
   return ost_fixtureRun(s);
 }
