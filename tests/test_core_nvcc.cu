@@ -5,6 +5,7 @@
 #include "ost_collision_box.h"
 #include "ost_collision_boxbox.h"
 #include "ost_collision_convex.h"
+#include "ost_collision_gjk.h"
 #include "ost_collision_mpr.h"
 #include "ost_collision_primitive.h"
 #include "ost_collision_terrain.h"
