@@ -229,35 +229,30 @@ static void placedGeom(const mjModel* m, const mjData* d, int g, ostGeom* out) {
 }
 
 
-int ost_hfieldData(const mjModel* m, ostNum** buf, int* n) {
-  if (*n != m->nhfielddata) {
+// the count floats of src as ostNum in *buf (*n entries), reallocated when the count changed
+static int floatsAsNum(const float* src, int count, ostNum** buf, int* n) {
+  if (*n != count) {
     free(*buf);
-    *buf = m->nhfielddata ? malloc(m->nhfielddata * sizeof(ostNum)) : NULL;
-    *n = *buf ? m->nhfielddata : 0;
-    if (m->nhfielddata && !*buf) {
+    *buf = count ? malloc((size_t)count * sizeof(ostNum)) : NULL;
+    *n = *buf ? count : 0;
+    if (count && !*buf) {
       return OST_ERR_MEMORY;
     }
   }
   for (int i = 0; i < *n; i++) {
-    (*buf)[i] = m->hfield_data[i];
+    (*buf)[i] = src[i];
   }
   return OST_OK;
 }
 
 
+int ost_hfieldData(const mjModel* m, ostNum** buf, int* n) {
+  return floatsAsNum(m->hfield_data, m->nhfielddata, buf, n);
+}
+
+
 int ost_meshData(const mjModel* m, ostNum** buf, int* n) {
-  if (*n != 3 * m->nmeshvert) {
-    free(*buf);
-    *buf = m->nmeshvert ? malloc(3 * (size_t)m->nmeshvert * sizeof(ostNum)) : NULL;
-    *n = *buf ? 3 * m->nmeshvert : 0;
-    if (m->nmeshvert && !*buf) {
-      return OST_ERR_MEMORY;
-    }
-  }
-  for (int i = 0; i < *n; i++) {
-    (*buf)[i] = m->mesh_vert[i];
-  }
-  return OST_OK;
+  return floatsAsNum(m->mesh_vert, 3 * m->nmeshvert, buf, n);
 }
 
 

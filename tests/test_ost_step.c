@@ -121,6 +121,23 @@ static double uniform(uint64_t* x) {
 }
 
 
+// tests/models/planar_legs.xml, loaded after the fixture's setup
+static mjModel* loadPlanarLegs(void) {
+  ost_fixtureSetup();
+  char path[1024], err[1000] = "";
+  snprintf(path, sizeof(path), "%s/../tests/models/planar_legs.xml", OST_MODEL_DIR);
+  mjModel* m = mj_loadXML(path, NULL, err, sizeof(err));
+  ck_assert_msg(m != NULL, "%s", err);
+  return m;
+}
+
+
+// the planar legs' random motor controls before step k: uniform in [-1, 1], new every 3 steps
+static void planarControls(const mjModel* m, mjData* d, int k, uint64_t* x) {
+  for (int i = 0; i < m->nu && k % 3 == 0; i++) d->ctrl[i] = 2 * uniform(x) - 1;
+}
+
+
 // a planar body on two legs with capsule feet (tests/models/planar_legs.xml), driven by random
 // motor controls held for 3 steps of h = 0.07 s: at the 56th step of this sequence the Newton loop
 // started from the last step's forces and acceleration cycles with period 2 (merit 2.5e-2 and
@@ -130,11 +147,7 @@ static double uniform(uint64_t* x) {
 // trajectory's bits: should a change of the solver remove it with cold_retry off, this test
 // says so and needs a new sequence.)
 START_TEST(test_coldRetry) {
-  ost_fixtureSetup();
-  char path[1024], err[1000] = "";
-  snprintf(path, sizeof(path), "%s/../tests/models/planar_legs.xml", OST_MODEL_DIR);
-  mjModel* m = mj_loadXML(path, NULL, err, sizeof(err));
-  ck_assert_msg(m != NULL, "%s", err);
+  mjModel* m = loadPlanarLegs();
   mjData* d = mj_makeData(m);
   for (int retry = 0; retry < 2; retry++) {
     ostOptions opt;
@@ -148,7 +161,7 @@ START_TEST(test_coldRetry) {
     uint64_t x = 1835 * 0x9E3779B97F4A7C15ull + 1;
     int first_unconverged = -1;
     for (int k = 0; k < 100; k++) {
-      for (int i = 0; i < m->nu && k % 3 == 0; i++) d->ctrl[i] = 2 * uniform(&x) - 1;
+      planarControls(m, d, k, &x);
       int status = ost_step(m, d);
       ck_assert(status == OST_OK || status == OST_WARN_NOT_CONVERGED);
       if (status != OST_OK && first_unconverged < 0) first_unconverged = k;
@@ -181,11 +194,7 @@ END_TEST
 // the 12 unconverged steps of seeds 1-2000 at this h, 200,000 steps, with the default options).
 // Every step must converge to tol, as every step of those seeds now does.
 START_TEST(test_saturatedSticking) {
-  ost_fixtureSetup();
-  char path[1024], err[1000] = "";
-  snprintf(path, sizeof(path), "%s/../tests/models/planar_legs.xml", OST_MODEL_DIR);
-  mjModel* m = mj_loadXML(path, NULL, err, sizeof(err));
-  ck_assert_msg(m != NULL, "%s", err);
+  mjModel* m = loadPlanarLegs();
   mjData* d = mj_makeData(m);
   ostOptions opt;
   ck_assert_int_eq(ost_readOptions(m, &opt, NULL, 0), OST_OK);
@@ -194,7 +203,7 @@ START_TEST(test_saturatedSticking) {
   ost_resetTotals(d);
   uint64_t x = 4 * 0x9E3779B97F4A7C15ull + 1;
   for (int k = 0; k < 100; k++) {
-    for (int i = 0; i < m->nu && k % 3 == 0; i++) d->ctrl[i] = 2 * uniform(&x) - 1;
+    planarControls(m, d, k, &x);
     int status = ost_step(m, d);
     ck_assert_msg(status == OST_OK, "step %d: status %d, residual %.3g m/s", k, status,
                   ost_stats(d)->residual);
