@@ -735,16 +735,17 @@ OST_HD ostNum osti_immobileRows(ostWorld* w, int i, int nf, ostNum kf) {
 #define OST_RELAX_REG 1e-4
 
 // the Newton model of saturated sticking, a primal-dual active-set correction of eq. (7): a
-// contact classed sticking (|z| <= mu lambda_n) whose direction asks for a friction force
-// outside its cone, |lambda_f + dlambda_f| > mu (lambda_n + dlambda_n), is not sticking at the
-// next iterate. The line search then projects that force back onto the cone, the dynamics
-// residual grows in proportion to the step, and Newton crawls toward the same target for many
-// iterates (a humanoid's light foot contact: 10-28 iterates a step). Such a contact gets the
-// projection's Jacobian at the cone instead (beta = 1 in osti_frictionRows' slide branch): in
-// the frame of the predicted force e, the force along e is pinned to the cone, moving with
-// lambda_n (osti_newtonApplySet), and the rows across e keep the sticking model. Only the
-// Newton model changes; residual and merit stay eq. (7)'s. Returns the number of contacts
-// changed (their direction must be solved again).
+// contact classed sticking (|z| <= mu lambda_n) with its force on the cone, whose direction asks
+// for a friction force outside the cone, |lambda_f + dlambda_f| > mu max(lambda_n, lambda_n +
+// dlambda_n), is not sticking at the next iterate. The line search then projects that force back
+// onto the cone, the dynamics residual grows in proportion to the step, and Newton crawls toward
+// the same target for many iterates (a humanoid's light foot contact: 10-28 iterates a step).
+// Such a contact gets the sliding model of osti_frictionRows with the predicted force in the
+// place of z (osti_slideRows): in the frame of e = f / |f|, f = lambda_f + dlambda_f, the force
+// along e is pinned to the cone, moving with lambda_n (osti_newtonApplySet), and the rows across
+// e get the weight W = c_s + k_f (1 - beta) / beta, beta = mu lambda_n / |f|. Only the Newton
+// model changes; residual and merit stay eq. (7)'s. Returns the number of contacts changed
+// (their direction must be solved again).
 OST_HD int osti_saturateSticking(ostWorld* w, const ostSolverOptions* opt) {
   int nrow = w->nrow, changed = 0;
   for (int i = 0; i + 2 < nrow; i++) {
