@@ -106,6 +106,18 @@ def test_fd_and_mppi_run_and_the_table_compares(monkeypatch):
   assert "fd K = 1 in 10.00 s" in speed and "adjoint K = 2 (99.5) in 1.00 s: 10.0x" in speed
 
 
+def test_mppi_on_another_device_is_labelled_and_plans_alike():
+  # MPPI on a two-thread batch: its rows say the device, and a batch's worlds step alike on any
+  # number of threads (the batch is bitwise the same on cpu:N and cuda), so the episode is the
+  # one-thread episode
+  one = mpc.Planner("cartpole", "balance", horizon=6, xml_dir=SUITE_DIR)
+  two = mpc.Planner("cartpole", "balance", horizon=6, xml_dir=SUITE_DIR, device="cpu:2")
+  a = mpc.run_episode(one, "mppi", 8, steps=4, err=io.StringIO())
+  b = mpc.run_episode(two, "mppi", 8, steps=4, err=io.StringIO())
+  assert (a.method, b.method) == ("mppi", "mppi@cpu:2")
+  assert b.ret == a.ret and b.steps == a.steps == 4
+
+
 def test_cli_writes_csv_and_png_atomically(tmp_path, capsys):
   csv_path, png = tmp_path / "mpc.csv", tmp_path / "mpc.png"
   status = mpc.main(["--task", "cartpole-balance", "--methods", "adjoint,mppi", "--iters", "1",
@@ -125,7 +137,7 @@ def test_cli_writes_csv_and_png_atomically(tmp_path, capsys):
 @pytest.mark.parametrize("args", [["--task", "nope-task"], ["--methods", "sgd"],
                                   ["--iters", "0"], ["--samples", "x"], ["--steps", "0"],
                                   ["--control-cost", "-1"], ["--csv", "/nonexistent/a.csv"],
-                                  ["--physics-timestep", "0"],
+                                  ["--physics-timestep", "0"], ["--device", "tpu"],
                                   ["--physics-timestep", "0.003"]])  # 0.01 s is no multiple
 def test_cli_refuses_bad_arguments_before_work(args):
   argv = ["--task", "cartpole-balance", "--xml-dir", str(SUITE_DIR)] + args

@@ -44,7 +44,7 @@ import warnings
 
 import numpy as np
 
-from ..errors import NotConvergedWarning
+from ..errors import NotConvergedWarning, OstrichError
 from . import load
 from .optimize import (Adam, Problem, SetupError, SUPPORTED, Unconverged,
                        check_outputs_and_data, draw_png, parse_methods, parse_tasks,
@@ -64,11 +64,12 @@ class Planner:
   the plant's state before each plan, and whose objective carries the control cost."""
 
   def __init__(self, domain, task, horizon=None, seed=0, xml_dir=None,
-               control_cost=CONTROL_COST, physics_timestep=None):
+               control_cost=CONTROL_COST, physics_timestep=None, device="cpu:1"):
     env = load(domain, task, xml_dir=xml_dir, seed=seed, physics_timestep=physics_timestep)
     if horizon is None:  # 1 s of control steps: a swing, a reach, a stride
       horizon = max(1, int(round(1.0 / env.control_timestep())))
     self.problem = Problem(domain, task, horizon, seed, xml_dir, physics_timestep)
+    self.problem.device = self.device = device  # MPPI's batches
     f, c = self.problem.f, float(control_cost)
     self.problem.f = lambda qpos, qvel, ctrl: f(qpos, qvel, ctrl) - c * np.sum(ctrl ** 2, -1)
     self.horizon, self.nu = self.problem.horizon, self.problem.nu
@@ -177,7 +178,8 @@ def run_episode(planner, method, setting, steps=None, err=None):
         steps = k + 1
         break
     plant_bad = sum(issubclass(w.category, NotConvergedWarning) for w in caught)
-  return Episode(name, method, setting, total, plan_s, steps,
+  label = method if method != "mppi" or planner.device == "cpu:1" else f"mppi@{planner.device}"
+  return Episode(name, label, setting, total, plan_s, steps,
                  setting * steps if method != "mppi" else steps, bad, plant_bad)
 
 
@@ -297,6 +299,10 @@ def parse(argv):
   ap.add_argument("--control-cost", type=float, default=CONTROL_COST,
                   help=f"C in J = sum f - C |a|^2 (default {CONTROL_COST:g})")
   ap.add_argument("--seed", type=int, default=0, help="the task's start state and MPPI's draws")
+  ap.add_argument("--device", default="cpu:1",
+                  help="MPPI's batches: cpu:1 (one thread, as the gradient planners; the "
+                  "default), cpu:N, cpu (all cores) or cuda; other than cpu:1 its rows are "
+                  "labelled mppi@DEVICE")
   ap.add_argument("--xml-dir", help="dm_control's suite MJCF folder (default: as ostrich.suite)")
   ap.add_argument("--csv", help="write one row per episode to this CSV")
   ap.add_argument("--plot", help="draw return against planning time into this PNG (gnuplot)")
@@ -328,7 +334,12 @@ def main(argv=None, out=None, err=None):
   try:
     tasks, runs = setup(args)
     planners = [Planner(d, t, args.horizon, args.seed, args.xml_dir, args.control_cost,
-                        args.physics_timestep) for d, t in tasks]
+                        args.physics_timestep, args.device) for d, t in tasks]
+    if any(m == "mppi" for m, _ in runs):
+      try:
+        planners[0].problem.batch(1)  # the device exists and takes the model
+      except OstrichError as e:
+        raise SetupError(f"--device {args.device}: {e}") from None
   except (SetupError, ValueError) as e:
     print(f"ostrich.suite.mpc: {e}", file=err)
     return 2

@@ -188,6 +188,7 @@ class Problem:
     self.eval_env = load(domain, task, xml_dir=xml_dir, seed=seed,
                          physics_timestep=physics_timestep)
     self._mj = None  # the MuJoCo environment, made when fd needs it
+    self.device = "cpu:1"  # the sampling planners' batches: one thread, as the other planners
     self.rows = np.arange(1, self.horizon + 1) * self.n_sub  # rollout rows ending control steps
 
   def clip(self, actions):
@@ -306,7 +307,7 @@ class Problem:
   # -- batches for the sampling planner
 
   def batch(self, nworld):
-    return Batch(self.env.physics, nworld, device="cpu:1")
+    return Batch(self.env.physics, nworld, device=self.device)
 
   def objective_batch(self, actions, batch=None):
     """J of each sequence (N x H x nu) on Ostrich, and each one's unconverged step count."""
