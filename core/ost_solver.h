@@ -540,6 +540,16 @@ OST_HD void osti_reflectFriction(ostWorld* w, int a, int n, const ostNum* H) {
 }
 
 
+// k_f = h (J_f Mt^-1 J_f')avg of contact i's nf friction rows (velocity per force; eq. 7)
+OST_HD ostNum osti_frictionScale(const ostWorld* w, int i, int nf) {
+  ostNum kf = 0;
+  for (int k = 0; k < nf; k++) {
+    kf += w->diag[i + 1 + k];
+  }
+  return w->h * kf / nf;
+}
+
+
 // the sliding model of contact i's nf friction rows (osti_frictionRows) for the slip-frame vector
 // z (|z| = zn > 0): rows reflected into the frame of e = z / |z|, the force along e pinned to
 // the cone bound, the rows across e with the weight W = c_s + k_f (1 - beta) / beta,
@@ -596,11 +606,7 @@ OST_HD ostNum osti_slideRows(ostWorld* w, int i, int nf, ostNum kf, ostNum cs, o
 // solution). Returns the squared merit |G|^2 k_f^2 (velocity units).
 OST_HD ostNum osti_frictionRows(ostWorld* w, int i, int nf, ostNum reg, ostNum creep) {
   int a = i + 1;
-  ostNum kf = 0;
-  for (int k = 0; k < nf; k++) {
-    kf += w->diag[a + k];
-  }
-  kf = w->h * kf / nf;
+  ostNum kf = osti_frictionScale(w, i, nf);
   ostNum cs = reg * kf + creep;
   ostNum bound = w->rows[i].mu * (w->lambda[i] > 0 ? w->lambda[i] : 0);
   ostNum z[OST_MAXFRIC], zn2 = 0;
@@ -771,11 +777,7 @@ OST_HD int osti_saturateSticking(ostWorld* w, const ostSolverOptions* opt) {
     if (!(fn2 > b * b * (1 + OST_SATURATE_SLACK))) {
       continue;
     }
-    ostNum kf = 0;
-    for (int k = 0; k < nf; k++) {
-      kf += w->diag[a + k];
-    }
-    kf = w->h * kf / nf;
+    ostNum kf = osti_frictionScale(w, i, nf);
     ostNum cs = opt->reg * kf + opt->creep;
     osti_slideRows(w, i, nf, kf, cs, bound, f, sqrt(fn2));
     changed++;
