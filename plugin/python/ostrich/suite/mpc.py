@@ -337,7 +337,8 @@ def main(argv=None, out=None, err=None):
                         args.physics_timestep, args.device) for d, t in tasks]
     if any(m == "mppi" for m, _ in runs):
       try:
-        planners[0].problem.batch(1)  # the device exists and takes the model
+        for planner in planners:
+          planner.problem.batch(1)  # the device exists and takes each task's model
       except OstrichError as e:
         raise SetupError(f"--device {args.device}: {e}") from None
   except (SetupError, ValueError) as e:
