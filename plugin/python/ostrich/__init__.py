@@ -16,6 +16,7 @@ The API is described in plugin/python/README.md.
 from ._lib import MUJOCO_VERSION
 from .batch import Batch, BatchGradients, BatchRollout
 from .errors import MujocoWarning, NotConvergedError, NotConvergedWarning, OstrichError
+from .linearized import LinearizedRollout, mujoco_linearized_rollout
 from .physics import Physics
 from .rollout import (PARAM_GROUPS, Gradients, Rollout, get_theta, mujoco_rollout, param_slices,
                       rollout, set_theta)
@@ -24,5 +25,5 @@ __all__ = [
     "Physics", "rollout", "Rollout", "Gradients", "PARAM_GROUPS", "OstrichError",
     "NotConvergedError", "NotConvergedWarning", "MujocoWarning", "MUJOCO_VERSION", "Batch",
     "BatchRollout", "BatchGradients", "get_theta", "set_theta",
-    "param_slices", "mujoco_rollout",
+    "param_slices", "mujoco_rollout", "mujoco_linearized_rollout", "LinearizedRollout",
 ]

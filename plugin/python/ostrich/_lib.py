@@ -54,6 +54,8 @@ _SIGNATURES = {
     "ostpy_rollout": (_i, [_p, _p, _i, _d, _d, _d, _ip]),
     "ostpy_backward": (_i, [_p, _p, _i, _i, _i, _d, _d, _d, _d, _d, _d]),
     "ostpy_mujocoRollout": (_i, [_p, _i, _i, _d, _d, _d, _d]),
+    "ostpy_mujocoLinearRollout": (_i, [_p, _i, _i, _d, ctypes.c_double, _d, _d, _d, _d]),
+    "ostpy_linearBackward": (_i, [_i, _i, _i, _d, _d, _d, _d, _d]),
     "ostpy_coordToTangent": (None, [_p, _i, _d, _d, _d]),
     "ostpy_tangentToCoord": (None, [_p, _i, _d, _d, _d]),
     # ostrich.h, through the same handle

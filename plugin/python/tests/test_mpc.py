@@ -93,11 +93,14 @@ def test_shifted_plan_and_moments():
 def test_fd_and_mppi_run_and_the_table_compares(monkeypatch):
   planner = mpc.Planner("cartpole", "balance", horizon=8, xml_dir=SUITE_DIR)
   episodes = [mpc.run_episode(planner, m, s, steps=5, err=io.StringIO())
-              for m, s in (("adjoint", 1), ("fd", 1), ("mppi", 8))]
-  assert [e.method for e in episodes] == ["adjoint", "fd", "mppi"]
+              for m, s in (("adjoint", 1), ("fd", 1), ("fdjac", 1), ("mppi", 8))]
+  assert [e.method for e in episodes] == ["adjoint", "fd", "fdjac", "mppi"]
   assert all(e.steps == 5 and e.ret > 0 for e in episodes)
+  # fd and fdjac take the same steps on gradients equal to ~1e-7: the same episode's return
+  assert episodes[2].ret == pytest.approx(episodes[1].ret, rel=1e-6)
   rows, speed = mpc.table(episodes)
-  assert rows.count("\n") == 4 and "cartpole-balance" in speed
+  assert rows.count("\n") == 5 and "cartpole-balance: fd's" in speed
+  assert "cartpole-balance: fdjac's" in speed
   # the comparison line: the cheapest adjoint episode within 2 % of fd's best return
   fake = [e._replace(method=m, setting=k, ret=r, plan_s=t) for e, (m, k, r, t) in zip(
       episodes * 2, [("fd", 1, 100.0, 10.0), ("fd", 2, 101.0, 20.0), ("adjoint", 1, 95.0, 0.5),

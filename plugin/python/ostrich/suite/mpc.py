@@ -3,7 +3,7 @@ with Ostrich's adjoint gradients, with the same optimizer fed by finite differen
 MuJoCo, and with a sampling planner (MPPI) on Ostrich batches.
 
   python3 -m ostrich.suite.mpc --task cartpole-swingup[,pendulum-swingup,...]
-      [--methods adjoint,fd,mppi] [--iters 1,2,5] [--samples 16,64] [--horizon N]
+      [--methods adjoint,fd,fdjac,mppi] [--iters 1,2,5] [--samples 16,64] [--horizon N]
       [--steps N] [--control-cost C] [--seed S] [--csv FILE] [--plot FILE.png]
 
 The plant is the task's dm_env Environment on Ostrich (dm_control's XML, start state, reward,
@@ -23,6 +23,9 @@ C (measured: the reacher held its wrist at the limit 3 cm from the target, retur
   adjoint  K Adam steps per control step on dJ/dA from ostrich.rollout(...).backward(...).
   fd       the same K Adam steps on dJ/dA by forward differences of stock MuJoCo rollouts from
            the plant's state (ostrich.suite.optimize.Problem.fd_objective_and_gradient).
+  fdjac    the same K Adam steps on dJ/dA through stock MuJoCo's finite-difference step
+           Jacobians chained backward (Problem.fdjac_objective_and_gradient): the iLQR-style
+           baseline, cheaper than fd for horizons of more than a few steps.
   mppi     model-predictive path integral control: N sampled action sequences around the plan
            (one Ostrich Batch rollout on one thread) averaged with weights exp((J_i - max J) /
            (0.1 (max J - mean J))).
@@ -50,7 +53,7 @@ from .optimize import (Adam, Problem, SetupError, SUPPORTED, Unconverged,
                        check_outputs_and_data, draw_png, parse_methods, parse_tasks,
                        write_atomic)
 
-METHODS = ("adjoint", "fd", "mppi")
+METHODS = ("adjoint", "fd", "fdjac", "mppi")
 ADAM_LR = 0.1          # Adam's step in action units (the suite's actions lie in [-1, 1])
 CONTROL_COST = 1e-2    # C: per step, against rewards in [0, 1]
 MPPI_STD = 0.3         # MPPI's sampling spread, in half-ranges of the action spec
@@ -149,6 +152,8 @@ def run_episode(planner, method, setting, steps=None, err=None):
     agent = GradientMPC(planner, prob.objective_and_gradient, setting)
   elif method == "fd":
     agent = GradientMPC(planner, prob.fd_objective_and_gradient, setting)
+  elif method == "fdjac":
+    agent = GradientMPC(planner, prob.fdjac_objective_and_gradient, setting)
   elif method == "mppi":
     agent = MPPI(planner, setting, np.random.RandomState(planner.seed))
   else:
@@ -213,22 +218,23 @@ def table(episodes):
   lines = []
   for task in dict.fromkeys(e.task for e in episodes):
     adj = [e for e in episodes if e.task == task and e.method == "adjoint"]
-    fd = [e for e in episodes if e.task == task and e.method == "fd"]
-    if not (adj and fd):
-      continue
-    best = max(fd, key=lambda e: (e.ret, -e.plan_s))
-    target = REACH * best.ret
-    reach = [e for e in adj if e.ret >= target]
-    if not reach:
-      lines.append(f"{task}: no adjoint episode came within 2 % of fd's best return "
-                   f"{best.ret:.1f}")
-      continue
-    fast = min(reach, key=lambda e: e.plan_s)
-    fd_fast = min((e for e in fd if e.ret >= target), key=lambda e: e.plan_s)
-    lines.append(f"{task}: fd's best return {best.ret:.1f}; within 2 % of it: fd K = "
-                 f"{fd_fast.setting} in {fd_fast.plan_s:.2f} s of planning, adjoint K = "
-                 f"{fast.setting} ({fast.ret:.1f}) in {fast.plan_s:.2f} s: "
-                 f"{fd_fast.plan_s / max(fast.plan_s, 1e-9):.1f}x less planning time")
+    for name in ("fd", "fdjac"):
+      fd = [e for e in episodes if e.task == task and e.method == name]
+      if not (adj and fd):
+        continue
+      best = max(fd, key=lambda e: (e.ret, -e.plan_s))
+      target = REACH * best.ret
+      reach = [e for e in adj if e.ret >= target]
+      if not reach:
+        lines.append(f"{task}: no adjoint episode came within 2 % of {name}'s best return "
+                     f"{best.ret:.1f}")
+        continue
+      fast = min(reach, key=lambda e: e.plan_s)
+      fd_fast = min((e for e in fd if e.ret >= target), key=lambda e: e.plan_s)
+      lines.append(f"{task}: {name}'s best return {best.ret:.1f}; within 2 % of it: {name} K = "
+                   f"{fd_fast.setting} in {fd_fast.plan_s:.2f} s of planning, adjoint K = "
+                   f"{fast.setting} ({fast.ret:.1f}) in {fast.plan_s:.2f} s: "
+                   f"{fd_fast.plan_s / max(fast.plan_s, 1e-9):.1f}x less planning time")
   return "\n".join(rows), "\n".join(lines)
 
 
@@ -279,15 +285,16 @@ def parse(argv):
       prog="python3 -m ostrich.suite.mpc",
       description="Model-predictive control of dm_control suite tasks on Ostrich: Adam on "
       "Ostrich's adjoint gradients (adjoint), the same Adam on finite differences of stock "
-      "MuJoCo (fd), and MPPI on Ostrich batches (mppi); one whole episode per method and "
+      "MuJoCo rollouts (fd) and through its finite-difference step Jacobians (fdjac), and MPPI "
+      "on Ostrich batches (mppi); one whole episode per method and "
       "setting, returns and planning time.")
   ap.add_argument("--task", required=True,
                   help="DOMAIN-TASK, or several separated by commas; one of: "
                   + ", ".join(f"{d}-{t}" for d, t in SUPPORTED))
-  ap.add_argument("--methods", default="adjoint,fd,mppi", help="comma-separated: "
+  ap.add_argument("--methods", default="adjoint,fd,fdjac,mppi", help="comma-separated: "
                   + ",".join(METHODS))
   ap.add_argument("--iters", default="1,2,5",
-                  help="Adam steps per control step for adjoint and fd, one episode each")
+                  help="Adam steps per control step for adjoint, fd and fdjac, one episode each")
   ap.add_argument("--samples", default="16,64", help="MPPI's samples per control step, one "
                   "episode each")
   ap.add_argument("--horizon", type=int, help="planned control steps (default: 1 s of them)")

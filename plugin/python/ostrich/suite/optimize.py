@@ -2,7 +2,7 @@
 same optimizer fed by finite differences of stock MuJoCo, and against a sampling planner.
 
   python3 -m ostrich.suite.optimize --task cartpole-swingup [--horizon N] [--budget SECONDS]
-      [--methods adjoint,fd,cem] [--seed S] [--csv FILE] [--plot FILE.png]
+      [--methods adjoint,fd,fdjac,cem] [--seed S] [--csv FILE] [--plot FILE.png]
 
 The decision variable is the action sequence A (H x nu) of the episode's first H control steps
 from the task's random start state (seed S), inside the action spec's bounds. Every method
@@ -15,6 +15,11 @@ the end of each control step:
   fd       the same Adam, with dJ/dA by forward differences of stock MuJoCo rollouts (mj_step):
            one rollout per action component, each restarted from the saved state of its step
            (the steps before it are unchanged), so H (H + 1) / 2 * nu control steps a gradient.
+  fdjac    the same Adam, with dJ/dA through stock MuJoCo's step Jacobians by forward
+           differences (mjd_transitionFD; ostrich.mujoco_linearized_rollout) chained backward
+           along the nominal rollout: 1 + 2 nv + na + nu steps per step, the way iLQR-style
+           planners on MuJoCo differentiate. Exact up to the differences on smooth dynamics; the
+           chain of soft-contact Jacobians can blow up (the walker's: 700 times fd's gradient).
   cem      the cross-entropy method on Ostrich rollouts of a Batch (one thread): samples around
            a mean sequence, the best ones refit the mean and spread.
 
@@ -45,6 +50,7 @@ import warnings
 
 import numpy as np
 
+from ..linearized import mujoco_linearized_rollout
 from ..rollout import mujoco_rollout
 from ..rollout import rollout as ost_rollout
 from ..batch import Batch
@@ -52,7 +58,8 @@ from ..errors import MujocoWarning, NotConvergedError, NotConvergedWarning, Ostr
 from . import find_suite_dir, load, planar, TASKS
 from .rewards import tolerance
 
-METHODS = ("adjoint", "fd", "cem")
+METHODS = ("adjoint", "fd", "fdjac", "cem")
+FD_METHODS = ("fd", "fdjac")  # the baselines on stock MuJoCo
 # control steps optimized per task by default: long enough for the task's motion (a swing-up
 # takes 2 to 3 s, the reacher about 1 s, a cheetah's stride about 0.3 s)
 DEFAULT_HORIZON = {("cartpole", "swingup"): 300, ("cartpole", "balance"): 200,
@@ -304,6 +311,26 @@ class Problem:
       raise Unconverged(f"MuJoCo rollout not usable: {why}")
     return J, g
 
+  def fdjac_objective_and_gradient(self, actions, eps=FD_STEP):
+    """(J, dJ/dA) on stock MuJoCo by the Jacobian chain: the nominal rollout with every step's
+    Jacobians by forward differences (mjd_transitionFD, ostrich.mujoco_linearized_rollout),
+    chained backward from the partial derivatives of f. Raises Unconverged (not finite)."""
+    p = self.mujoco.physics
+    d = p.data
+    d.qpos[:], d.qvel[:], d.qacc_warmstart[:] = self.qpos0, self.qvel0, 0  # as fd's snapshot 0
+    if d.act.size:
+      d.act[:] = 0
+    with warnings.catch_warnings(record=True) as caught:
+      warnings.simplefilter("always", MujocoWarning)
+      lin = mujoco_linearized_rollout(p, actions, self.mujoco.n_sub_steps, eps=eps)
+      J = float(np.sum(self.f(lin.qpos, lin.qvel, actions)))
+      dq, dv, du = partials(self.f, lin.qpos, lin.qvel, actions)
+      g = lin.backward(dq, dv)[0] + du
+    if caught or not (np.isfinite(J) and np.isfinite(g).all()):
+      why = "; ".join(str(w.message) for w in caught[:2]) or "non-finite states"
+      raise Unconverged(f"MuJoCo rollout not usable: {why}")
+    return J, g
+
   # -- batches for the sampling planner
 
   def batch(self, nworld):
@@ -423,7 +450,7 @@ def run_method(problem, method, budget, seed=0, max_iterations=None, err=None):
   max_iterations; return its Result. Progress lines go to err (default sys.stderr)."""
   err = err or sys.stderr
   name = f"{problem.domain}-{problem.task}"
-  result = Result(name, method, "mujoco" if method == "fd" else "ostrich")
+  result = Result(name, method, "mujoco" if method in FD_METHODS else "ostrich")
 
   def log(msg):
     print(f"[{name} {method}] {msg}", file=err, flush=True)
@@ -432,6 +459,8 @@ def run_method(problem, method, budget, seed=0, max_iterations=None, err=None):
     it = gradient_ascent(problem, problem.objective_and_gradient, log=log)
   elif method == "fd":
     it = gradient_ascent(problem, problem.fd_objective_and_gradient, log=log)
+  elif method == "fdjac":
+    it = gradient_ascent(problem, problem.fdjac_objective_and_gradient, log=log)
   elif method == "cem":
     it = cem(problem, np.random.RandomState(seed), log=log)
   else:
@@ -554,6 +583,7 @@ def plot(path, results, title=""):
       for r in results:
         if r.task == task and r.points:
           label = {"adjoint": "adjoint (Ostrich)", "fd": "finite differences (MuJoCo)",
+                   "fdjac": "FD step Jacobians (MuJoCo)",
                    "cem": "CEM (Ostrich)"}.get(r.method, r.method)
           lines.append(f"'{data}' using (strcol(1) eq '{task}' && strcol(2) eq "
                        f"'{r.method}' ? $5 : NaN):7 with steps lw 2 title '{label}'")
@@ -564,7 +594,7 @@ def plot(path, results, title=""):
 
 
 def table(results):
-  """The summary table (Markdown) and the adjoint-vs-fd comparison lines."""
+  """The summary table (Markdown) and the adjoint-vs-fd (and -fdjac) comparison lines."""
   rows = ["| task | method | optimizes on | best return | wall s to best | iterations | "
           "initial return | bad |", "|---|---|---|---:|---:|---:|---:|---:|"]
   for r in results:
@@ -575,16 +605,18 @@ def table(results):
   lines = []
   for task in dict.fromkeys(r.task for r in results):
     by = {r.method: r for r in results if r.task == task}
-    if "adjoint" in by and "fd" in by and by["fd"].points:
-      target, t_fd = by["fd"].best()
+    for fd in FD_METHODS:
+      if not ("adjoint" in by and fd in by and by[fd].points):
+        continue
+      target, t_fd = by[fd].best()
       t_adj = by["adjoint"].time_to(target)
       if t_adj is None:
-        lines.append(f"{task}: adjoint never reached fd's best return {target:.2f} (fd: "
+        lines.append(f"{task}: adjoint never reached {fd}'s best return {target:.2f} ({fd}: "
                      f"{t_fd:.2f} s)")
       else:
         speed = t_fd / max(t_adj, 1e-9)
-        lines.append(f"{task}: adjoint reached fd's best return {target:.2f} at {t_adj:.2f} s, "
-                     f"fd at {t_fd:.2f} s: {speed:.1f}x")
+        lines.append(f"{task}: adjoint reached {fd}'s best return {target:.2f} at {t_adj:.2f} "
+                     f"s, {fd} at {t_fd:.2f} s: {speed:.1f}x")
   return "\n".join(rows), "\n".join(lines)
 
 
@@ -595,15 +627,16 @@ def parse(argv):
       prog="python3 -m ostrich.suite.optimize",
       description="Open-loop trajectory optimization on dm_control suite tasks: Adam on "
       "Ostrich's adjoint gradients (adjoint), the same Adam on finite differences of stock "
-      "MuJoCo (fd), and the cross-entropy method on Ostrich rollouts (cem), each for the same "
-      "wall-clock budget; returns are the task's own, played on Ostrich.")
+      "MuJoCo rollouts (fd) and through its finite-difference step Jacobians (fdjac), and the "
+      "cross-entropy method on Ostrich rollouts (cem), each for the same wall-clock budget; returns are the task's own, played on Ostrich.")
   ap.add_argument("--task", required=True,
                   help="DOMAIN-TASK, or several separated by commas; one of: "
                   + ", ".join(f"{d}-{t}" for d, t in SUPPORTED))
   ap.add_argument("--horizon", type=int, help="control steps optimized (default per task)")
   ap.add_argument("--budget", type=float, default=60.0,
                   help="seconds of work per method and task (default 60)")
-  ap.add_argument("--methods", default="adjoint,fd,cem", help="comma-separated: adjoint,fd,cem")
+  ap.add_argument("--methods", default="adjoint,fd,fdjac,cem",
+                  help="comma-separated: adjoint,fd,fdjac,cem")
   ap.add_argument("--seed", type=int, default=0, help="the task's start state and CEM's samples")
   ap.add_argument("--iterations", type=int, help="stop a method after this many iterations")
   ap.add_argument("--xml-dir", help="dm_control's suite MJCF folder (default: as ostrich.suite)")
