@@ -268,19 +268,28 @@ OST_HD void osti_kinematicsBodies(const ostModel* m, ostKin* k, const ostNum* qp
 }
 
 
-// osti_kinematicsBodies, then the geoms: geom_xpos = x_b + R_b geom_pos, geom_xmat =
-// R(q_b geom_quat) (what collision reads; dynamics needs the bodies alone)
+// geom g's frame from its body's: geom_xpos = x_b + R_b geom_pos, geom_xmat = R(q_b geom_quat)
+OST_HD void osti_kinGeom(const ostModel* m, ostKin* k, int g) {
+  int b = m->geom_bodyid[g];
+  ostNum v[3], qg[4];
+  osti_kinMatVec(v, k->xmat + 9*b, m->geom_pos + 3*g);
+  for (int r = 0; r < 3; r++) {
+    k->geom_xpos[3*g + r] = k->xpos[3*b + r] + v[r];
+  }
+  osti_kinQuatMul(qg, k->xquat + 4*b, m->geom_quat + 4*g);
+  osti_kinQuat2Mat(k->geom_xmat + 9*g, qg);
+}
+
+
+// osti_kinematicsBodies, then the frames of the geoms collision reads: those of a candidate pair
+// (geom_paired). Dynamics needs the bodies alone, and a geom in no pair (visual meshes,
+// contype 0, a model without contact) is never read, so its frame is left as it was.
 OST_HD void osti_kinematics(const ostModel* m, ostKin* k, const ostNum* qpos) {
   osti_kinematicsBodies(m, k, qpos);
   for (int g = 0; g < m->s.ngeom; g++) {
-    int b = m->geom_bodyid[g];
-    ostNum v[3], qg[4];
-    osti_kinMatVec(v, k->xmat + 9*b, m->geom_pos + 3*g);
-    for (int r = 0; r < 3; r++) {
-      k->geom_xpos[3*g + r] = k->xpos[3*b + r] + v[r];
+    if (m->geom_paired[g]) {
+      osti_kinGeom(m, k, g);
     }
-    osti_kinQuatMul(qg, k->xquat + 4*b, m->geom_quat + 4*g);
-    osti_kinQuat2Mat(k->geom_xmat + 9*g, qg);
   }
 }
 

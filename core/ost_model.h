@@ -85,6 +85,7 @@ OST_STATIC_ASSERT(sizeof(ostSizes) % 8 == 0, "ostSizes: a multiple of 8 bytes");
   X(int,    geom_bodyid,      s.ngeom,       1)  /* body                                 */    \
   X(int,    geom_dataid,      s.ngeom,       1)  /* mesh or hfield id (-1: none)         */    \
   X(int,    geom_terrain,     s.ngeom,       1)  /* 1: mesh used as non-convex terrain   */    \
+  X(int,    geom_paired,      s.ngeom,       1)  /* 1: in a candidate pair (frame used)  */    \
   X(ostNum, geom_pos,         s.ngeom,       3)  /* position in the body frame           */    \
   X(ostNum, geom_quat,        s.ngeom,       4)  /* orientation in the body frame        */    \
   X(ostNum, geom_size,        s.ngeom,       3)  /* type-specific size                   */    \

@@ -191,6 +191,11 @@ int ost_compareNative(const mjModel* m, int nstate, unsigned seed, ostNativeRepo
     }
     mj_forward(m, d);
     osti_kinematics(&om, &k, d->qpos);
+    for (int g = 0; g < m->ngeom; g++) {
+      if (!om.geom_paired[g]) {
+        osti_kinGeom(&om, &k, g);  // checked too, though steps never read them
+      }
+    }
     osti_comPos(&om, &k);
     osti_crb(&om, &k);
     osti_rne(&om, &k, d->qvel);

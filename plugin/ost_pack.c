@@ -388,6 +388,9 @@ int ost_packModel(const mjModel* m, int ncon_max, ostModel* om, void** block, ch
     om->geom_terrain[terrain] = 1;
   }
   candidatePairs(m, om, 0);
+  for (int p = 0; p < s.npair; p++) {
+    om->geom_paired[om->pair_geom1[p]] = om->geom_paired[om->pair_geom2[p]] = 1;
+  }
 
   // meshes: all vertices (the support of a convex mesh over them equals its hull's); the
   // terrain mesh also keeps its faces and grid

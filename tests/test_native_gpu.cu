@@ -35,6 +35,9 @@ int ost_packModel(const mjModel* m, int ncon_max, ostModel* om, void** block, ch
 __host__ __device__ static void geometryWorld(const ostModel* m, ostKin* k, const ostNum* qpos,
                                               const ostNum* qvel) {
   osti_kinematics(m, k, qpos);
+  for (int g = 0; g < m->s.ngeom; g++) {
+    if (!m->geom_paired[g]) osti_kinGeom(m, k, g);  // compared too, though steps never read it
+  }
   osti_comPos(m, k);
   osti_crb(m, k);
   osti_rne(m, k, qvel);

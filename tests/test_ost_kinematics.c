@@ -198,6 +198,15 @@ static int checkModel(mjModel* m, const char* label, Errors* out, char* err, int
     OST_KIN_ARRAYS(X)
 #undef X
     osti_kinematics(&om, &k, qpos);
+    // a geom in no candidate pair keeps its frame (still the NaN poison): nothing reads it;
+    // its frame is then computed alone (osti_kinGeom) and checked as every other
+    for (int g = 0; g < m->ngeom; g++) {
+      if (!om.geom_paired[g]) {
+        ck_assert_msg(isnan(k.geom_xpos[3 * g]) && isnan(k.geom_xmat[9 * g + 8]),
+                      "%s: geom %d is in no pair but its frame was computed", label, g);
+        osti_kinGeom(&om, &k, g);
+      }
+    }
     osti_comPos(&om, &k);
     osti_crb(&om, &k);
     osti_rne(&om, &k, d->qvel);
