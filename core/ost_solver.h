@@ -117,6 +117,7 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNu
   X(ostNum, Jrow, OST_SOLVER_ROWS(1 + OST_MAXFRIC), nv) /* dense rows a provider writes */ \
   X(unsigned char, colmark, OST_SOLVER_ROWS(nv), 1) /* pattern scratch, all zero between calls */ \
   X(ostNum, merit_row, OST_SOLVER_ROWS(nrow_max), 2) /* row i's squared merit terms (friction, own) */ \
+  X(int, cpl_row, OST_SOLVER_ROWS(nrow_max), 2) /* contact i: void coupling, lagged next (osti_newton) */ \
   X(ostNum, xloc, OST_SOLVER_ROWS(nrow_max), 2) /* an island's Schur right-hand side, solution */ \
   X(int, match_order, OST_SOLVER_ROWS(nrow_max), 2) /* osti_matchRowsSorted's scratch       */   \
   /* islands (ost_island.h): at most one per tree, so nv bounds their number */                \
@@ -169,6 +170,9 @@ typedef struct ostWorld_ {        // one world: sizes and pointers into one allo
   int    sat_used;                // 1: the last direction used the saturated-sticking model
   int    sat_off;                 // 1: the next direction keeps the sticking model (the last
                                   // saturated direction found no descent; osti_newton)
+  int    cpl_used;                // 1: the last direction, coupling a sliding contact's friction
+                                  // bound to its normal force, drove that force below zero
+                                  // (such contacts marked in cpl_row; osti_newton)
 #define X(type, name, r, c) type* name;
   OST_WORLD_ARRAYS(X)
 #undef X
@@ -230,6 +234,7 @@ OST_HD void ostu_worldInitFor(ostWorld* w, void* buf, int nv, int ncol, int nrow
   w->env = NULL;
   w->op_version = 0;
   w->sat_used = w->sat_off = 0;
+  w->cpl_used = 0;
 #define X(type, name, r, c)                                         \
   w->name = (size_t)(r) * (size_t)(c) != 0 ? (type*)p : NULL;       \
   p += (((size_t)(r) * (c) * sizeof(type) + 63) / 64) * 64;
@@ -1059,9 +1064,10 @@ OST_HD int osti_pcr(ostWorld* w, ostNum* x, const ostNum* b, int maxit, ostNum r
 
 
 // 1 if row i is a contact sliding under normal force (osti_frictionRows set W[i]): its friction
-// force along the slip, mu lambda_n, then moves with lambda_n
+// force along the slip, mu lambda_n, then moves with lambda_n (0 while its coupling is lagged,
+// cpl_row[2 i + 1]: the direction then holds its bound at the iterate's normal force)
 OST_HD int osti_slidingCoupled(const ostWorld* w, int i) {
-  return i + 2 < w->nrow && w->rows[i].type == OST_ROW_CONTACT && w->W[i] != 0
+  return !(w->cpl_row && w->cpl_row[2 * i + 1]) && i + 2 < w->nrow && w->rows[i].type == OST_ROW_CONTACT && w->W[i] != 0
          && w->lambda[i] > 0;
 }
 
@@ -1430,6 +1436,14 @@ OST_HD int osti_directionSolve(ostWorld* w, const ostSolverOptions* opt, const o
 // saturated sticking where osti_saturateSticking changed a contact's rows (unless sat_off)
 OST_HD int osti_directionSaturated(ostWorld* w, const ostSolverOptions* opt) {
   int it = osti_directionSolve(w, opt, w->Minv_rdyn, w->rho, w->dlambda, w->dqvel);
+  // coupled sliding contacts whose predicted normal force is negative: the trial projects it to
+  // zero and the friction with it, so the coupled prediction is void there (cpl_row[2 i];
+  // osti_newton); judged on this model's own direction, before the saturated-sticking correction
+  w->cpl_used = 0;
+  for (int i = 0; w->cpl_row && i < w->nrow; i++) {
+    w->cpl_row[2 * i] = osti_slidingCoupled(w, i) && w->lambda[i] + w->dlambda[i] < 0;
+    w->cpl_used |= w->cpl_row[2 * i];
+  }
   w->sat_used = !w->sat_off && osti_saturateSticking(w, opt);
   if (w->sat_used) {
     it += osti_directionSolve(w, opt, w->Minv_rdyn, w->rho, w->dlambda, w->dqvel);

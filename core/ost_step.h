@@ -194,6 +194,32 @@ OST_HD int osti_newtonDirectionGeom(ostWorld* w, const ostSolverOptions* so, ost
 }
 
 
+// After a line search of the Newton loop: 1 if the iterate goes back to its base. A sliding
+// contact's friction bound moves with its normal force in the Newton model (osti_newtonApplySet);
+// where the direction drives that force below zero (cpl_row[2 i], osti_directionSaturated) the
+// trial projects it to zero and its friction with it, so the prediction is void there, and at
+// high friction the coupled system can be nearly singular (dm_control's cheetah, a foot at
+// mu = 1 against a joint limit: dlambda_n = -11,040 N from 310 N, the lowest trial 46 times the
+// base's merit, a cycle of period 3). When such a direction finds no descent (descent 0), the
+// iterate stays at its base and the next direction lags those contacts' coupling only
+// (cpl_row[2 i + 1]; the bound held at the base's normal force). A direction that lagged some
+// coupling already, or that found descent, clears the lags.
+OST_HD int osti_couplingFallback(ostWorld* w, int descent) {
+  if (!w->cpl_row) {
+    return 0;
+  }
+  int lagged = 0;
+  for (int i = 0; i < w->nrow_max; i++) {
+    lagged |= w->cpl_row[2 * i + 1];
+  }
+  int back = !descent && w->cpl_used && !lagged;
+  for (int i = 0; i < w->nrow_max; i++) {
+    w->cpl_row[2 * i + 1] = back && w->cpl_row[2 * i];
+  }
+  return back;
+}
+
+
 // the line search of islands: every island of the base iterate tries its own step, halved until
 // its merit falls (Armijo, as osti_newton's) at most `linesearch` times, all islands in one
 // geometry evaluation per trial; an island whose merit never fell takes its lowest trial. Done
@@ -237,6 +263,7 @@ OST_HD int osti_islandLineSearch(ostWorld* w, const ostSolverOptions* so, int li
     }
     if (all) {
       w->sat_off = 0;
+      osti_couplingFallback(w, 1);
       return 0;
     }
     for (int I = 0; I < nb && ls < linesearch; I++) {
@@ -245,11 +272,14 @@ OST_HD int osti_islandLineSearch(ostWorld* w, const ostSolverOptions* so, int li
   }
   // a saturated direction that found no descent in some island: the next keeps sticking
   w->sat_off = w->sat_used;
+  // a void coupled direction that found none: those islands go back to their base (alpha 0);
+  // else they take their lowest trial
+  int back = osti_couplingFallback(w, 0);
   int redo = 0;
   for (int I = 0; I < nb; I++) {
     if (!w->isl_acc[I]) {
-      OST_ISL_ALPHA(w, I) = OST_ISL_ALOW(w, I);
-      redo |= OST_ISL_ALOW(w, I) != OST_ISL_ALAST(w, I);
+      OST_ISL_ALPHA(w, I) = back ? 0 : OST_ISL_ALOW(w, I);
+      redo |= OST_ISL_ALPHA(w, I) != OST_ISL_ALAST(w, I);
     }
   }
   if (redo) {
@@ -280,7 +310,9 @@ OST_HD int osti_relaxStart(ostWorld* w, const ostSolverOptions* so, ostGeometryF
 // each a direction (PCR/GMRES on the Schur system) and a line search that halves alpha until
 // the merit falls (Armijo, sigma = 1e-4), at most `linesearch` times; if no trial lowers it the
 // lowest trial is taken (the contact set changed between trials: the Newton model was wrong
-// there). Stops at merit <= tol once k >= k_min. Leaves the best iterate (k >= k_min) with its
+// there), unless the direction drove coupled sliding contacts' normal forces below zero: then
+// the iterate stays at its base and the next direction lags those contacts' coupling
+// (osti_couplingFallback). Stops at merit <= tol once k >= k_min. Leaves the best iterate (k >= k_min) with its
 // geometry in the world (re-evaluated if it is not the last: the rows are deterministic).
 // merit_k / nrow_k (optional, nk entries) get each iterate's merit and row count.
 // Returns 0, the geometry's status, or OST_NEWTON_NONFINITE.
@@ -300,6 +332,8 @@ OST_HD int osti_newton(ostWorld* w, const ostSolverOptions* so, int linesearch, 
   w->nrow_relax = 0;
   w->nisland = 0;
   w->sat_used = w->sat_off = 0;
+  w->cpl_used = 0;
+  for (int i = 0; w->cpl_row && i < 2 * w->nrow_max; i++) w->cpl_row[i] = 0;
   osti_islandsStart(w);
   for (k = 0; k <= so->newton_iter; k++) {
     if (k == 0) {
@@ -329,7 +363,9 @@ OST_HD int osti_newton(ostWorld* w, const ostSolverOptions* so, int linesearch, 
       }
       int descent = merit < (1 - 1e-4 * alpha_last) * base;
       w->sat_off = !descent && w->sat_used;  // the next direction keeps the sticking model
-      if (!descent && alpha_lowest != alpha_last) {
+      if (osti_couplingFallback(w, descent)) {  // back to the base
+        status = osti_trialIterate(w, so, 0, geom, ctx, &merit, st);
+      } else if (!descent && alpha_lowest != alpha_last) {
         status = osti_trialIterate(w, so, alpha_lowest, geom, ctx, &merit, st);
       }
     }
