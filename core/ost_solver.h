@@ -1067,8 +1067,8 @@ OST_HD int osti_pcr(ostWorld* w, ostNum* x, const ostNum* b, int maxit, ostNum r
 // force along the slip, mu lambda_n, then moves with lambda_n (0 while its coupling is lagged,
 // cpl_row[2 i + 1]: the direction then holds its bound at the iterate's normal force)
 OST_HD int osti_slidingCoupled(const ostWorld* w, int i) {
-  return !(w->cpl_row && w->cpl_row[2 * i + 1]) && i + 2 < w->nrow && w->rows[i].type == OST_ROW_CONTACT && w->W[i] != 0
-         && w->lambda[i] > 0;
+  return !(w->cpl_row && w->cpl_row[2 * i + 1]) && i + 2 < w->nrow
+         && w->rows[i].type == OST_ROW_CONTACT && w->W[i] != 0 && w->lambda[i] > 0;
 }
 
 

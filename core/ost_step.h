@@ -222,7 +222,8 @@ OST_HD int osti_couplingFallback(ostWorld* w, int descent) {
 
 // the line search of islands: every island of the base iterate tries its own step, halved until
 // its merit falls (Armijo, as osti_newton's) at most `linesearch` times, all islands in one
-// geometry evaluation per trial; an island whose merit never fell takes its lowest trial. Done
+// geometry evaluation per trial; an island whose merit never fell takes its lowest trial (or
+// its base, osti_couplingFallback). Done
 // islands (no direction) keep their state. Leaves the accepted trial evaluated.
 OST_HD int osti_islandLineSearch(ostWorld* w, const ostSolverOptions* so, int linesearch,
                                  ostGeometryFn geom, void* ctx, ostNum* merit,
@@ -312,8 +313,9 @@ OST_HD int osti_relaxStart(ostWorld* w, const ostSolverOptions* so, ostGeometryF
 // lowest trial is taken (the contact set changed between trials: the Newton model was wrong
 // there), unless the direction drove coupled sliding contacts' normal forces below zero: then
 // the iterate stays at its base and the next direction lags those contacts' coupling
-// (osti_couplingFallback). Stops at merit <= tol once k >= k_min. Leaves the best iterate (k >= k_min) with its
-// geometry in the world (re-evaluated if it is not the last: the rows are deterministic).
+// (osti_couplingFallback). Stops at merit <= tol once k >= k_min. Leaves the best iterate
+// (k >= k_min) with its geometry in the world (re-evaluated if it is not the last: the rows are
+// deterministic).
 // merit_k / nrow_k (optional, nk entries) get each iterate's merit and row count.
 // Returns 0, the geometry's status, or OST_NEWTON_NONFINITE.
 OST_HD int osti_newton(ostWorld* w, const ostSolverOptions* so, int linesearch, ostGeometryFn geom,
