@@ -117,7 +117,7 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNu
   X(ostNum, Jrow, OST_SOLVER_ROWS(1 + OST_MAXFRIC), nv) /* dense rows a provider writes */ \
   X(unsigned char, colmark, OST_SOLVER_ROWS(nv), 1) /* pattern scratch, all zero between calls */ \
   X(ostNum, merit_row, OST_SOLVER_ROWS(nrow_max), 2) /* row i's squared merit terms (friction, own) */ \
-  X(int, cpl_row, OST_SOLVER_ROWS(nrow_max), 2) /* contact i: void coupling, lagged next (osti_newton) */ \
+  X(int, cpl_row, OST_SOLVER_ROWS(nrow_max), 2) /* contact i: coupling void, lagged next */ \
   X(ostNum, xloc, OST_SOLVER_ROWS(nrow_max), 2) /* an island's Schur right-hand side, solution */ \
   X(int, match_order, OST_SOLVER_ROWS(nrow_max), 2) /* osti_matchRowsSorted's scratch       */   \
   /* islands (ost_island.h): at most one per tree, so nv bounds their number */                \
