@@ -187,6 +187,33 @@ START_TEST(test_coldRetry) {
 }
 END_TEST
 
+// the planar legs under the controls of test_coldRetry from seed at step size h, with the default
+// options otherwise: every one of 100 steps must converge to tol
+static void assertPlanarConverges(double h, uint64_t seed) {
+  mjModel* m = loadPlanarLegs();
+  mjData* d = mj_makeData(m);
+  ostOptions opt;
+  ck_assert_int_eq(ost_readOptions(m, &opt, NULL, 0), OST_OK);
+  opt.timestep = h;
+  ck_assert_int_eq(ost_setOptions(m, d, &opt), OST_OK);
+  ost_resetTotals(d);
+  uint64_t x = seed * 0x9E3779B97F4A7C15ull + 1;
+  for (int k = 0; k < 100; k++) {
+    planarControls(m, d, k, &x);
+    int status = ost_step(m, d);
+    ck_assert_msg(status == OST_OK, "h %g, seed %d, step %d: status %d, residual %.3g m/s", h,
+                  (int)seed, k, status, ost_stats(d)->residual);
+  }
+  const ostTotals* t = ost_totals(d);
+  printf("planar legs h=%g, seed %d: %ld of 100 steps not converged, worst residual %.3g m/s\n",
+         h, (int)seed, t->unconverged, t->worst_residual);
+  ck_assert_int_eq(t->unconverged, 0);
+  ck_assert_double_le(t->worst_residual, opt.tol);
+  ost_deleteData(d);
+  mj_deleteModel(m);
+}
+
+
 // the planar legs at h = 0.03 s under the controls of test_coldRetry from seed 4: at the 78th step
 // one foot's friction is on its cone while its Newton model is sticking (|z| <= mu lambda_n) and
 // asks for a force far outside it; before the saturated-sticking model (osti_saturateSticking)
@@ -194,27 +221,7 @@ END_TEST
 // the 12 unconverged steps of seeds 1-2000 at this h, 200,000 steps, with the default options).
 // Every step must converge to tol, as every step of those seeds now does.
 START_TEST(test_saturatedSticking) {
-  mjModel* m = loadPlanarLegs();
-  mjData* d = mj_makeData(m);
-  ostOptions opt;
-  ck_assert_int_eq(ost_readOptions(m, &opt, NULL, 0), OST_OK);
-  opt.timestep = 0.03;
-  ck_assert_int_eq(ost_setOptions(m, d, &opt), OST_OK);
-  ost_resetTotals(d);
-  uint64_t x = 4 * 0x9E3779B97F4A7C15ull + 1;
-  for (int k = 0; k < 100; k++) {
-    planarControls(m, d, k, &x);
-    int status = ost_step(m, d);
-    ck_assert_msg(status == OST_OK, "step %d: status %d, residual %.3g m/s", k, status,
-                  ost_stats(d)->residual);
-  }
-  const ostTotals* t = ost_totals(d);
-  printf("planar legs h=0.03, seed 4: %ld of 100 steps not converged, worst residual %.3g m/s\n",
-         t->unconverged, t->worst_residual);
-  ck_assert_int_eq(t->unconverged, 0);
-  ck_assert_double_le(t->worst_residual, opt.tol);
-  ost_deleteData(d);
-  mj_deleteModel(m);
+  assertPlanarConverges(0.03, 4);
 }
 END_TEST
 
@@ -225,27 +232,7 @@ END_TEST
 // direction without descent returns to its base and the next lags that contact's coupling
 // (osti_couplingFallback), the step converges. Every step here must converge to tol.
 START_TEST(test_voidSlidingCoupling) {
-  mjModel* m = loadPlanarLegs();
-  mjData* d = mj_makeData(m);
-  ostOptions opt;
-  ck_assert_int_eq(ost_readOptions(m, &opt, NULL, 0), OST_OK);
-  opt.timestep = 0.1;
-  ck_assert_int_eq(ost_setOptions(m, d, &opt), OST_OK);
-  ost_resetTotals(d);
-  uint64_t x = 943 * 0x9E3779B97F4A7C15ull + 1;
-  for (int k = 0; k < 100; k++) {
-    planarControls(m, d, k, &x);
-    int status = ost_step(m, d);
-    ck_assert_msg(status == OST_OK, "step %d: status %d, residual %.3g m/s", k, status,
-                  ost_stats(d)->residual);
-  }
-  const ostTotals* t = ost_totals(d);
-  printf("planar legs h=0.1, seed 943: %ld of 100 steps not converged, worst residual %.3g m/s\n",
-         t->unconverged, t->worst_residual);
-  ck_assert_int_eq(t->unconverged, 0);
-  ck_assert_double_le(t->worst_residual, opt.tol);
-  ost_deleteData(d);
-  mj_deleteModel(m);
+  assertPlanarConverges(0.1, 943);
 }
 END_TEST
 

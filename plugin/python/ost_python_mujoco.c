@@ -81,14 +81,17 @@ static void stepJacobianFD(const mjModel* m, mjData* d, mjtNum eps, mjtNum* A, m
   mju_copy(q1, d->qpos, nq);
   mju_copy(v1, d->qvel, nv);
   mju_copy(a1, d->act, na);
-  for (int c = 0; c < n + nu; c++) {
-    // the start again, with column c's component moved by eps
+  for (int c = 0;; c++) {
+    // the start again: with column c's component moved by eps, or at the end as it was
     mju_copy(d->qpos, q0, nq);
     mju_copy(d->qvel, v0, nv);
     mju_copy(d->act, a0, na);
     mju_copy(d->qacc_warmstart, w0, nv);
     mju_copy(d->ctrl, u0, nu);
     d->time = time;
+    if (c == n + nu) {
+      break;
+    }
     if (c < nv) {
       mju_zero(dq, nv);
       dq[c] = 1;
@@ -115,12 +118,6 @@ static void stepJacobianFD(const mjModel* m, mjData* d, mjtNum eps, mjtNum* A, m
       }
     }
   }
-  mju_copy(d->qpos, q0, nq);
-  mju_copy(d->qvel, v0, nv);
-  mju_copy(d->act, a0, na);
-  mju_copy(d->qacc_warmstart, w0, nv);
-  mju_copy(d->ctrl, u0, nu);
-  d->time = time;
 }
 
 
