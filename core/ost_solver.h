@@ -173,6 +173,8 @@ typedef struct ostWorld_ {        // one world: sizes and pointers into one allo
   int    cpl_used;                // 1: the last direction, coupling a sliding contact's friction
                                   // bound to its normal force, drove that force below zero
                                   // (such contacts marked in cpl_row; osti_newton)
+  int    cpl_n;                   // rows of cpl_row that may be non-zero (the most rows a
+                                  // direction of this Newton loop had)
 #define X(type, name, r, c) type* name;
   OST_WORLD_ARRAYS(X)
 #undef X
@@ -234,7 +236,7 @@ OST_HD void ostu_worldInitFor(ostWorld* w, void* buf, int nv, int ncol, int nrow
   w->env = NULL;
   w->op_version = 0;
   w->sat_used = w->sat_off = 0;
-  w->cpl_used = 0;
+  w->cpl_used = w->cpl_n = 0;
 #define X(type, name, r, c)                                         \
   w->name = (size_t)(r) * (size_t)(c) != 0 ? (type*)p : NULL;       \
   p += (((size_t)(r) * (c) * sizeof(type) + 63) / 64) * 64;
@@ -1444,6 +1446,7 @@ OST_HD int osti_directionSaturated(ostWorld* w, const ostSolverOptions* opt) {
     w->cpl_row[2 * i] = osti_slidingCoupled(w, i) && w->lambda[i] + w->dlambda[i] < 0;
     w->cpl_used |= w->cpl_row[2 * i];
   }
+  w->cpl_n = w->nrow > w->cpl_n ? w->nrow : w->cpl_n;
   w->sat_used = !w->sat_off && osti_saturateSticking(w, opt);
   if (w->sat_used) {
     it += osti_directionSolve(w, opt, w->Minv_rdyn, w->rho, w->dlambda, w->dqvel);

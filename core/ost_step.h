@@ -209,11 +209,11 @@ OST_HD int osti_couplingFallback(ostWorld* w, int descent) {
     return 0;
   }
   int lagged = 0;
-  for (int i = 0; i < w->nrow_max; i++) {
+  for (int i = 0; i < w->cpl_n; i++) {
     lagged |= w->cpl_row[2 * i + 1];
   }
   int back = !descent && w->cpl_used && !lagged;
-  for (int i = 0; i < w->nrow_max; i++) {
+  for (int i = 0; i < w->cpl_n; i++) {
     w->cpl_row[2 * i + 1] = back && w->cpl_row[2 * i];
   }
   return back;
@@ -334,8 +334,8 @@ OST_HD int osti_newton(ostWorld* w, const ostSolverOptions* so, int linesearch, 
   w->nrow_relax = 0;
   w->nisland = 0;
   w->sat_used = w->sat_off = 0;
-  w->cpl_used = 0;
-  for (int i = 0; w->cpl_row && i < 2 * w->nrow_max; i++) w->cpl_row[i] = 0;
+  for (int i = 0; w->cpl_row && i < 2 * w->cpl_n; i++) w->cpl_row[i] = 0;
+  w->cpl_used = w->cpl_n = 0;
   osti_islandsStart(w);
   for (k = 0; k <= so->newton_iter; k++) {
     if (k == 0) {
