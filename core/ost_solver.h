@@ -173,8 +173,8 @@ typedef struct ostWorld_ {        // one world: sizes and pointers into one allo
   int    cpl_used;                // 1: the last direction, coupling a sliding contact's friction
                                   // bound to its normal force, drove that force below zero
                                   // (such contacts marked in cpl_row; osti_newton)
-  int    cpl_n;                   // rows of cpl_row that may be non-zero (the most rows a
-                                  // direction of this Newton loop had)
+  int    cpl_n;                   // rows of cpl_row in use: the most rows a direction of this
+                                  // Newton loop had (entries beyond are stale, never read)
 #define X(type, name, r, c) type* name;
   OST_WORLD_ARRAYS(X)
 #undef X
@@ -1067,9 +1067,10 @@ OST_HD int osti_pcr(ostWorld* w, ostNum* x, const ostNum* b, int maxit, ostNum r
 
 // 1 if row i is a contact sliding under normal force (osti_frictionRows set W[i]): its friction
 // force along the slip, mu lambda_n, then moves with lambda_n (0 while its coupling is lagged,
-// cpl_row[2 i + 1]: the direction then holds its bound at the iterate's normal force)
+// cpl_row[2 i + 1]: the direction then holds its bound at the iterate's normal force; rows from
+// cpl_n on are never marked, and their entries are not read: the allocation is not zeroed)
 OST_HD int osti_slidingCoupled(const ostWorld* w, int i) {
-  return !(w->cpl_row && w->cpl_row[2 * i + 1]) && i + 2 < w->nrow
+  return !(w->cpl_row && i < w->cpl_n && w->cpl_row[2 * i + 1]) && i + 2 < w->nrow
          && w->rows[i].type == OST_ROW_CONTACT && w->W[i] != 0 && w->lambda[i] > 0;
 }
 
@@ -1442,11 +1443,17 @@ OST_HD int osti_directionSaturated(ostWorld* w, const ostSolverOptions* opt) {
   // zero and the friction with it, so the coupled prediction is void there (cpl_row[2 i];
   // osti_newton); judged on this model's own direction, before the saturated-sticking correction
   w->cpl_used = 0;
-  for (int i = 0; w->cpl_row && i < w->nrow; i++) {
-    w->cpl_row[2 * i] = osti_slidingCoupled(w, i) && w->lambda[i] + w->dlambda[i] < 0;
-    w->cpl_used |= w->cpl_row[2 * i];
+  if (w->cpl_row) {
+    for (int i = w->cpl_n; i < w->nrow; i++) {
+      w->cpl_row[2 * i + 1] = 0;  // rows new to this Newton loop: not lagged
+    }
+    w->cpl_n = w->nrow > w->cpl_n ? w->nrow : w->cpl_n;
+    for (int i = 0; i < w->cpl_n; i++) {
+      w->cpl_row[2 * i] = i < w->nrow && osti_slidingCoupled(w, i)
+                          && w->lambda[i] + w->dlambda[i] < 0;
+      w->cpl_used |= w->cpl_row[2 * i];
+    }
   }
-  w->cpl_n = w->nrow > w->cpl_n ? w->nrow : w->cpl_n;
   w->sat_used = !w->sat_off && osti_saturateSticking(w, opt);
   if (w->sat_used) {
     it += osti_directionSolve(w, opt, w->Minv_rdyn, w->rho, w->dlambda, w->dqvel);

@@ -334,8 +334,7 @@ OST_HD int osti_newton(ostWorld* w, const ostSolverOptions* so, int linesearch, 
   w->nrow_relax = 0;
   w->nisland = 0;
   w->sat_used = w->sat_off = 0;
-  for (int i = 0; w->cpl_row && i < 2 * w->cpl_n; i++) w->cpl_row[i] = 0;
-  w->cpl_used = w->cpl_n = 0;
+  w->cpl_used = w->cpl_n = 0;  // no row marked (osti_directionSaturated)
   osti_islandsStart(w);
   for (k = 0; k <= so->newton_iter; k++) {
     if (k == 0) {
