@@ -266,17 +266,35 @@ class Problem:
       self._mj = env
     return self._mj
 
+  def _mj_start(self):
+    """The start state as a snapshot (mujoco_rollout's layout: qpos, qvel, qacc_warmstart,
+    act): Ostrich's start, warm start and act zero, as after reset."""
+    p = self.mujoco.physics
+    s = np.zeros(p.nq + 2 * p.nv + p.data.act.size)
+    s[:p.nq], s[p.nq:p.nq + p.nv] = self.qpos0, self.qvel0
+    return s
+
+  def _mj_restore(self, s):
+    """Put snapshot s into the MuJoCo physics' data."""
+    d = self.mujoco.physics.data
+    nq, nv = d.qpos.size, d.qvel.size
+    d.qpos[:], d.qvel[:], d.qacc_warmstart[:] = s[:nq], s[nq:nq + nv], s[nq + nv:nq + 2 * nv]
+    if d.act.size:  # (no suite task here has activations; an empty view is read-only)
+      d.act[:] = s[nq + 2 * nv:]
+
+  @staticmethod
+  def _mj_usable(caught, J, g):
+    """Raise Unconverged if MuJoCo warned (caught) or J or g is not finite."""
+    if caught or not (np.isfinite(J) and np.isfinite(g).all()):
+      why = "; ".join(str(w.message) for w in caught[:2]) or "non-finite states"
+      raise Unconverged(f"MuJoCo rollout not usable: {why}")
+
   def _mj_run(self, actions, k0, snap, qp_out, qv_out):
     """Play actions[k0:] on MuJoCo from snapshot k0 (self._snap), writing the end-of-step states
     into qp_out[k0:], qv_out[k0:] and the snapshots of steps k0.. into snap (if given). The steps
     run in C (mujoco_rollout): no Python call per step."""
     p = self.mujoco.physics
-    d = p.data
-    nq, nv = p.nq, p.nv
-    s = self._snap[k0]  # qpos, qvel, qacc_warmstart, act (mujoco_rollout's layout)
-    d.qpos[:], d.qvel[:], d.qacc_warmstart[:] = s[:nq], s[nq:nq + nv], s[nq + nv:nq + 2 * nv]
-    if d.act.size:  # (no suite task here has activations; an empty view is read-only)
-      d.act[:] = s[nq + 2 * nv:]
+    self._mj_restore(self._snap[k0])
     mujoco_rollout(p, actions[k0:], self.mujoco.n_sub_steps, qp_out[k0:], qv_out[k0:],
                    None if snap is None else snap[k0:])
 
@@ -286,8 +304,8 @@ class Problem:
     p = self.mujoco.physics
     H, nu = self.horizon, self.nu
     snap = np.zeros((H, p.nq + 2 * p.nv + p.data.act.size))
-    snap[0, :p.nq], snap[0, p.nq:p.nq + p.nv] = self.qpos0, self.qvel0  # warm start, act 0:
-    self._snap = snap                                                  # as after reset
+    snap[0] = self._mj_start()
+    self._snap = snap
     qp, qv = np.zeros((H, p.nq)), np.zeros((H, p.nv))
     with warnings.catch_warnings(record=True) as caught:
       warnings.simplefilter("always", MujocoWarning)
@@ -306,9 +324,7 @@ class Problem:
           Jk = prefix[k] + float(np.sum(self.f(qp2[k:], qv2[k:], a2[k:])))
           g[k, j] = (Jk - J) / h
           a2[k, j] = actions[k, j]
-    if caught or not (np.isfinite(J) and np.isfinite(g).all()):
-      why = "; ".join(str(w.message) for w in caught[:2]) or "non-finite states"
-      raise Unconverged(f"MuJoCo rollout not usable: {why}")
+    self._mj_usable(caught, J, g)
     return J, g
 
   def fdjac_objective_and_gradient(self, actions, eps=FD_STEP):
@@ -316,19 +332,14 @@ class Problem:
     Jacobians by forward differences (mjd_transitionFD, ostrich.mujoco_linearized_rollout),
     chained backward from the partial derivatives of f. Raises Unconverged (not finite)."""
     p = self.mujoco.physics
-    d = p.data
-    d.qpos[:], d.qvel[:], d.qacc_warmstart[:] = self.qpos0, self.qvel0, 0  # as fd's snapshot 0
-    if d.act.size:
-      d.act[:] = 0
+    self._mj_restore(self._mj_start())  # fd's start too
     with warnings.catch_warnings(record=True) as caught:
       warnings.simplefilter("always", MujocoWarning)
       lin = mujoco_linearized_rollout(p, actions, self.mujoco.n_sub_steps, eps=eps)
       J = float(np.sum(self.f(lin.qpos, lin.qvel, actions)))
       dq, dv, du = partials(self.f, lin.qpos, lin.qvel, actions)
       g = lin.backward(dq, dv)[0] + du
-    if caught or not (np.isfinite(J) and np.isfinite(g).all()):
-      why = "; ".join(str(w.message) for w in caught[:2]) or "non-finite states"
-      raise Unconverged(f"MuJoCo rollout not usable: {why}")
+    self._mj_usable(caught, J, g)
     return J, g
 
   # -- batches for the sampling planner
