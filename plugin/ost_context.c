@@ -39,6 +39,7 @@ static void freeContext(ostContext* c) {
   free(c->env_buf);
   free(c->native_block);
   free(c->corepairs_block);
+  ost_collisionFree(&c->col);
   free(c->hfield_data);
   free(c->mesh_vert);
   free(c->sync_range);

@@ -6,6 +6,8 @@
 #ifndef OSTRICH_PLUGIN_OST_INTERNAL_H_
 #define OSTRICH_PLUGIN_OST_INTERNAL_H_
 
+#include <stdint.h>
+
 #include <mujoco/mujoco.h>
 
 #include "ost_geom.h"
@@ -50,6 +52,21 @@ typedef struct ostSyncRange_ {   // a byte range of mjModel.buffer (ost_sync.c)
   size_t off;                     // offset in m->buffer
   size_t sz;                      // bytes
 } ostSyncRange;
+
+typedef struct ostCollisionCache_ {  // the iterates' collision (ost_collision_mujoco.c)
+  int       state;   // 0: undecided (new or changed model), 1: listed, -1: mj_collision itself
+  int       built;   // 1 if cand and ref hold a list
+  mjtNum    slack;   // s: the list holds while every geom stays within s of ref
+  mjtNum    scale;   // the mean bounding radius of the geoms that are not planes
+  uint64_t* cand;    // dynamic geom pairs: signature << 32 | geom << 16 | geom, ascending
+  int       ncand;   // their number
+  int       cap;     // cand's capacity
+  mjtNum*   ref;     // geom_xpos when the list was built                       (3 ngeom)
+  int*      order;   // the sweep's order of the geoms, kept between builds        (ngeom)
+  long      builds;  // lists built (tests)
+  long      uses;    // collisions from a list (tests)
+  long      uses_at_build;  // uses when the current list was built
+} ostCollisionCache;
 
 typedef struct ostContext_ {
   const mjData*  d;               // the mjData this context serves
@@ -110,6 +127,7 @@ typedef struct ostContext_ {
   char*          sync_shadow;     // their values at the last synchronisation
   size_t         sync_sz;         // its size in bytes
   mjOption       sync_opt;        // m->opt at the last synchronisation
+  ostCollisionCache col;           // mujoco provider: the iterates' collision list
   ostModel       corepairs;       // mujoco provider: pairs collided by core (ost_corePair)
   void*          corepairs_block; // their arrays (ost_packCorePairs)
   ostNum*        hfield_data;     // the model's height-field data as ostNum (nhfielddata)
@@ -169,6 +187,14 @@ int ost_capacityFail(ostContext* c, const char* what, int cap);
 // fill the world's rows and Jacobians at the configuration in d->qpos using MuJoCo's own
 // kinematics and collision on the private model (the `mujoco` geometry provider)
 int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h);
+
+// MuJoCo 2.2.2's mj_collision(m, d), bit for bit, from a list of the geom pairs that can touch
+// kept in k while the geoms stay near where it was built (ost_collision_mujoco.c)
+void ost_collision(ostCollisionCache* k, const mjModel* m, mjData* d);
+
+// the list must be decided again (the model changed); ost_collisionFree releases it
+void ost_collisionReset(ostCollisionCache* k);
+void ost_collisionFree(ostCollisionCache* k);
 
 // the contacts of d from MuJoCo's general convex collision (MPR) with their true distance (GJK
 // on separated geoms) instead of MPR's inflated depth; mesh_vert from ost_meshData

@@ -382,7 +382,7 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
   mj_comPos(m, d);
   mj_tendon(m, d);
   mj_transmission(m, d);
-  mj_collision(m, d);
+  ost_collision(&c->col, m, d);
   if (c->opt.convex_distance) {
     ost_refineConvexContacts(m, d, c->mesh_vert);
   }

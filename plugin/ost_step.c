@@ -123,6 +123,7 @@ static int prepareSynced(ostContext* c, const mjModel* m, int changed) {
     c->servo[i] = ost_actuatorKind(m, i, NULL, 0) == 1;
   }
   ost_setMargins(c->mo, m, c->opt.margin);
+  ost_collisionReset(&c->col);
   if (c->opt.geometry == OST_GEOMETRY_NATIVE) {
     status = ost_nativeReady(c, m);
   } else if (ost_packCorePairs(c->mo, &c->corepairs, &c->corepairs_block)
