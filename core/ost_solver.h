@@ -110,6 +110,7 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNu
   X(ostNum, hess, OST_SOLVER_ROWS(OST_KRYLOV + 1), OST_KRYLOV + 4) /* Hessenberg, rotations */     \
   X(ostNum, Ad, OST_SOLVER_ROWS(OST_NDENSE(nrow_max)), OST_NDENSE(nrow_max)) /* dense Schur, LU */ \
   X(ostNum, Yh, OST_SOLVER_ROWS(OST_NDENSE(nrow_max)), ncol) /* rows' half-solves L^-T J_i' */   \
+  X(ostNum, Yt, OST_SOLVER_ROWS(OST_NDENSE(nrow_max)), nv) /* the same by dof (column-major) */   \
   X(int, Apiv, OST_SOLVER_ROWS(OST_NDENSE(nrow_max)), 1) /* the LU's pivots                   */   \
   X(ostRow, rows_relax, OST_SOLVER_ROWS(nrow_max), 1) /* violations kept this step (relax) */     \
   X(int, Jnnz, OST_SOLVER_ROWS(nrow_max), 1) /* columns in row i's pattern (osti_rowStore)  */   \
@@ -494,6 +495,71 @@ OST_HD void osti_rowDiag(ostWorld* w, int i) {
 }
 
 
+// the number of rows from i on (at most max) that share row i's pattern: a contact's normal and
+// friction rows, stored from the same two dof chains (osti_rowStoreChains)
+OST_HD int osti_patternRun(const ostWorld* w, int i, int max) {
+  if (!w->Jnnz || !w->dof_parent || !w->Jrow) {
+    return 1;  // osti_rowDiagRun needs the tree factor, patterns and Jrow's scratch
+  }
+  const int* a = w->Jind + (size_t)i * w->ncol;
+  int n = w->Jnnz[i], g = 1;
+  if (max > 1 + OST_MAXFRIC) {
+    max = 1 + OST_MAXFRIC;
+  }
+  for (; g < max && w->Jnnz[i + g] == n; g++) {
+    const int* b = w->Jind + (size_t)(i + g) * w->ncol;
+    int k = 0;
+    while (k < n && a[k] == b[k]) k++;
+    if (k < n) {
+      break;
+    }
+  }
+  return g;
+}
+
+
+// osti_rowDiag of the g rows from i, which share one pattern (osti_patternRun): one walk of
+// the pattern's parent chains and one read of each factor entry serve all g half-solves, each
+// row's arithmetic that of osti_rowDiag (the same bits)
+OST_HD void osti_rowDiagRun(ostWorld* w, int i, int g) {
+  if (g == 1) {
+    osti_rowDiag(w, i);
+    return;
+  }
+  int nv = w->nv, ncol = w->ncol, n = w->Jnnz[i];
+  const int* ind = w->Jind + (size_t)i * ncol;
+  const int* parent = w->dof_parent;
+  ostNum* y = w->Jrow;  // g vectors of nv, apart by nv
+  ostNum d[1 + OST_MAXFRIC];
+  for (int r = 0; r < g; r++) {
+    const ostNum* v = w->J + (size_t)(i + r) * ncol;
+    for (int k = 0; k < n; k++) {
+      y[(size_t)r * nv + ind[k]] = v[k];
+    }
+    d[r] = 0;
+  }
+  for (int k = n - 1; k >= 0; k--) {
+    int c = ind[k];
+    ostNum yc[1 + OST_MAXFRIC];
+    for (int r = 0; r < g; r++) yc[r] = y[(size_t)r * nv + c];
+    for (int j = parent[c]; j >= 0; j = parent[j]) {
+      ostNum Mcj = w->M[(size_t)c * nv + j];
+      for (int r = 0; r < g; r++) y[(size_t)r * nv + j] -= Mcj * yc[r];
+    }
+    ostNum Mcc = w->M[(size_t)c * nv + c];
+    for (int r = 0; r < g; r++) {
+      d[r] += yc[r] * yc[r] / Mcc;
+#if OST_ROW_CACHE
+      if (w->yrow) w->yrow[(size_t)(i + r) * ncol + k] = yc[r];  // osti_directSet reads it
+#endif
+    }
+  }
+  for (int r = 0; r < g; r++) {
+    w->diag[i + r] = d[r] > 1e-300 ? d[r] : 1e-300;
+  }
+}
+
+
 // the Householder reflection H = I - beta v v' that maps the unit vector e (n <= OST_MAXFRIC)
 // onto the first axis: H e = e_1, H = H' = H^-1. v = e - e_1, its first entry computed without
 // cancellation (e_1 - 1 = -sum_{k>1} e_k^2 / (1 + e_1) when e_1 > 0). Fills H (n x n).
@@ -572,8 +638,12 @@ OST_HD ostNum osti_slideRows(ostWorld* w, int i, int nf, ostNum kf, ostNum cs, o
   osti_householder(H, w->W + a, nf);
   osti_reflectFriction(w, a, nf, H);
   ostNum lam[OST_MAXFRIC] = {0};
+  for (int k = 0; k < nf;) {
+    int g = osti_patternRun(w, a + k, nf - k);
+    osti_rowDiagRun(w, a + k, g);
+    k += g;
+  }
   for (int k = 0; k < nf; k++) {
-    osti_rowDiag(w, a + k);
     lam[k] = w->lambda[a + k];
   }
   osti_reflect(w->Ju + a, H, nf);
@@ -820,10 +890,14 @@ OST_HD ostNum osti_evaluate(ostWorld* w, const ostSolverOptions* opt) {
   }
 
   // per-row J u and the Jacobi diagonal J_i Mt^-1 J_i'
-  for (int i = 0; i < nrow; i++) {
-    w->Ju[i] = osti_rowDot(w, i, w->qvel);
-    osti_rowDiag(w, i);
-    w->W[i] = 0;
+  for (int i = 0; i < nrow;) {
+    int g = osti_patternRun(w, i, nrow - i);
+    for (int k = i; k < i + g; k++) {
+      w->Ju[k] = osti_rowDot(w, k, w->qvel);
+      w->W[k] = 0;
+    }
+    osti_rowDiagRun(w, i, g);
+    i += g;
   }
 
   // row forms; FB rows are divided by h*phi_a so that all rows share J_i as their Jacobian
@@ -1240,29 +1314,45 @@ OST_HD ostRowSet osti_islandSet(const ostWorld* w, int I) {
 
 #ifndef OST_NUM_TYPE  // the forward solver runs in doubles (the LU takes double)
 // A = J Mt^-1 J' + c / h on a set (n x n, symmetric) from the rows' half-solves in w->Yh
-// (osti_directSet): A_lm = sum_c y_l[c] y_m[c] over the columns two patterns share. y_l is
-// scattered into a dense vector (zero off its pattern) and dotted with each y_m on y_m's
-// pattern: the columns y_l lacks add exact zeros, so the sum is bitwise the shared columns'
-// sum in ascending order, without a branchy merge of the two index lists
+// (osti_directSet): A_lm = sum_c y_l[c] y_m[c] over the columns two patterns share, in
+// ascending c. The half-solves are laid out by dof (Yt: dof c's entries of every row, zero off
+// a row's pattern), and row l's sums run over its own pattern with the products of all m >= l
+// at once: a contiguous loop the compiler vectorizes without reordering any one sum. Each
+// A_lm gets the products of the shared columns in ascending c, plus exact zeros where only one
+// pattern has a column, which leave a sum unchanged (it starts at +0 and adding +-0 to +0 or to
+// a non-zero gives the same), so A is bitwise the sum over the shared columns alone.
 OST_HD void osti_directAssemble(ostWorld* w, const ostRowSet* set, ostNum* A) {
   int n = set->n, ncol = w->ncol;
-  ostNum* yd = w->tmp;  // dense y_l (nv), zero off the current pattern
-  for (int c = 0; c < w->nv; c++) yd[c] = 0;
+  ostNum* Yt = w->Yt;
+  // zero the set's dofs' columns (every dof for the whole set), then scatter the rows
+  if (set->tree) {
+    for (int t = 0; t < set->ntree; t++) {
+      for (int c = set->tree[t]; c < w->tree_end[set->tree[t]]; c++) {
+        for (int m = 0; m < n; m++) Yt[(size_t)c * n + m] = 0;
+      }
+    }
+  } else {
+    for (size_t k = 0; k < (size_t)w->nv * n; k++) Yt[k] = 0;
+  }
   for (int l = 0; l < n; l++) {
     int i = OST_SET_ROW(set, l);
     const int* il = w->Jind + (size_t)i * ncol;
     const ostNum* Yl = w->Yh + (size_t)l * ncol;
-    for (int a = 0; a < w->Jnnz[i]; a++) yd[il[a]] = Yl[a];
-    for (int m = l; m < n; m++) {
-      int j = OST_SET_ROW(set, m);
-      const int* jm = w->Jind + (size_t)j * ncol;
-      const ostNum* Ym = w->Yh + (size_t)m * ncol;
-      ostNum s = 0;
-      for (int e = 0; e < w->Jnnz[j]; e++) s += Ym[e] * yd[jm[e]];
-      A[(size_t)l * n + m] = A[(size_t)m * n + l] = s;
+    for (int a = 0; a < w->Jnnz[i]; a++) Yt[(size_t)il[a] * n + l] = Yl[a];
+  }
+  for (int l = 0; l < n; l++) {
+    int i = OST_SET_ROW(set, l);
+    const int* il = w->Jind + (size_t)i * ncol;
+    const ostNum* Yl = w->Yh + (size_t)l * ncol;
+    ostNum* Al = A + (size_t)l * n;
+    for (int m = l; m < n; m++) Al[m] = 0;
+    for (int a = 0; a < w->Jnnz[i]; a++) {
+      const ostNum* col = Yt + (size_t)il[a] * n;
+      ostNum y = Yl[a];
+      for (int m = l; m < n; m++) Al[m] += col[m] * y;
     }
-    for (int a = 0; a < w->Jnnz[i]; a++) yd[il[a]] = 0;
-    A[(size_t)l * n + l] += w->c[i] / w->h;
+    for (int m = l + 1; m < n; m++) A[(size_t)m * n + l] = Al[m];
+    Al[l] += w->c[i] / w->h;
   }
 }
 
