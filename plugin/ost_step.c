@@ -663,7 +663,11 @@ static int advance(ostContext* c, mjData* d, mjtNum h, int fresh) {
   ostStepSettings set = {ost_solverOptions(o), o->linesearch, o->split_depth, o->warmstart,
                          o->cold_retry, h,
                          o->split_tol, o->margin, o->depenetration_speed};
-  stepContext s = {c, d, fresh, {0}, {0}};
+  stepContext s;  // merit_k and nrow_k are written before they are read (newtonCallback reads
+                  // the iterates the loop just wrote): not zeroed, 12 KB per step
+  s.c = c;
+  s.d = d;
+  s.fresh = fresh;
   ostStepDriver drv = {&s, startCallback, geometryCallback, newtonCallback, commitCallback,
                        failBits, s.merit_k, s.nrow_k, mjNSOLVER};
   // the multipliers start from the last step's if this step continues from its result
