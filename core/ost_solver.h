@@ -519,32 +519,30 @@ OST_HD int osti_patternRun(const ostWorld* w, int i, int max) {
 
 
 // osti_rowDiag of the g rows from i, which share one pattern (osti_patternRun): one walk of
-// the pattern's parent chains and one read of each factor entry serve all g half-solves, each
-// row's arithmetic that of osti_rowDiag (the same bits)
-OST_HD void osti_rowDiagRun(ostWorld* w, int i, int g) {
-  if (g == 1) {
-    osti_rowDiag(w, i);
-    return;
-  }
+// the pattern's parent chains and one read of each factor entry serve all g half-solves (laid
+// out interleaved, y[j g + r]), each row's arithmetic that of osti_rowDiag (the same bits).
+// g is a constant where osti_rowDiagRun calls it, so the loops over r unroll.
+OST_HD void osti_rowDiagRunG(ostWorld* w, int i, const int g) {
   int nv = w->nv, ncol = w->ncol, n = w->Jnnz[i];
   const int* ind = w->Jind + (size_t)i * ncol;
   const int* parent = w->dof_parent;
-  ostNum* y = w->Jrow;  // g vectors of nv, apart by nv
+  ostNum* y = w->Jrow;  // (1 + OST_MAXFRIC) nv >= g nv
   ostNum d[1 + OST_MAXFRIC];
   for (int r = 0; r < g; r++) {
     const ostNum* v = w->J + (size_t)(i + r) * ncol;
     for (int k = 0; k < n; k++) {
-      y[(size_t)r * nv + ind[k]] = v[k];
+      y[(size_t)ind[k] * g + r] = v[k];
     }
     d[r] = 0;
   }
   for (int k = n - 1; k >= 0; k--) {
     int c = ind[k];
     ostNum yc[1 + OST_MAXFRIC];
-    for (int r = 0; r < g; r++) yc[r] = y[(size_t)r * nv + c];
+    for (int r = 0; r < g; r++) yc[r] = y[(size_t)c * g + r];
     for (int j = parent[c]; j >= 0; j = parent[j]) {
       ostNum Mcj = w->M[(size_t)c * nv + j];
-      for (int r = 0; r < g; r++) y[(size_t)r * nv + j] -= Mcj * yc[r];
+      ostNum* yj = y + (size_t)j * g;
+      for (int r = 0; r < g; r++) yj[r] -= Mcj * yc[r];
     }
     ostNum Mcc = w->M[(size_t)c * nv + c];
     for (int r = 0; r < g; r++) {
@@ -556,6 +554,18 @@ OST_HD void osti_rowDiagRun(ostWorld* w, int i, int g) {
   }
   for (int r = 0; r < g; r++) {
     w->diag[i + r] = d[r] > 1e-300 ? d[r] : 1e-300;
+  }
+}
+
+
+OST_HD void osti_rowDiagRun(ostWorld* w, int i, int g) {
+  switch (g) {
+    case 1: osti_rowDiag(w, i); break;
+    case 2: osti_rowDiagRunG(w, i, 2); break;
+    case 3: osti_rowDiagRunG(w, i, 3); break;
+    case 4: osti_rowDiagRunG(w, i, 4); break;
+    case 5: osti_rowDiagRunG(w, i, 5); break;
+    default: osti_rowDiagRunG(w, i, 6); break;  // 1 + OST_MAXFRIC, osti_patternRun's cap
   }
 }
 
