@@ -812,8 +812,15 @@ static int step2(ostContext* c, const mjModel* m, mjData* d, int synced) {
     // MuJoCo's contacts, and the core pairs this step packed (ost_prepareContext)
     c->stats.max_penetration = ost_penetrationWith(m, d, &c->corepairs, c->hfield_data);
   }
-  // a step whose committed substeps did not all reach tol is taken, but says so
-  return (c->stats.status & OST_NOT_CONVERGED) ? OST_WARN_NOT_CONVERGED : OST_OK;
+  // a step whose committed substeps did not all reach tol is taken, but says so, also to a
+  // caller that prints ost_lastError
+  if (c->stats.status & OST_NOT_CONVERGED) {
+    return ost_fail(c, OST_WARN_NOT_CONVERGED, "the step did not converge: residual %.3g m/s "
+                    "above tol %.3g after %d Newton iterates (the state was advanced; raise "
+                    "ostrich/newton_iter or lower the timestep)", c->stats.residual, c->opt.tol,
+                    c->stats.newton_iter);
+  }
+  return OST_OK;
 }
 
 

@@ -291,7 +291,8 @@ OSTAPI const ostTotals* ost_totals(const mjData* d);
 // Zero d's counts.
 OSTAPI void ost_resetTotals(const mjData* d);
 
-// Message of the last failed call on d ("" if none).
+// Message of the last failed call on d, or of the warning the last step returned
+// (OST_WARN_NOT_CONVERGED: its residual); "" if none.
 OSTAPI const char* ost_lastError(const mjData* d);
 
 // Deepest penetration (m) at d's kinematics: MuJoCo's contacts in d->contact, except that

@@ -97,6 +97,11 @@ START_TEST(test_splitStep) {
     ck_assert_int_eq(status == OST_WARN_NOT_CONVERGED, ost_stats(d)->residual > opt.tol);
     ck_assert_int_eq(status == OST_WARN_NOT_CONVERGED,
                      (ost_stats(d)->status & OST_NOT_CONVERGED) != 0);
+    // the warning's message names it (a caller printing ost_lastError says why), a converged
+    // step leaves none
+    ck_assert_int_eq(status == OST_WARN_NOT_CONVERGED,
+                     strstr(ost_lastError(d), "did not converge") != NULL);
+    ck_assert_int_eq(status == OST_OK, ost_lastError(d)[0] == 0);
     warned += status != OST_OK;
     split += ost_stats(d)->substeps > 1;
     // split_depth 3 (the default): a step is halved at most three times, 2^3 substeps
