@@ -22,13 +22,15 @@ set xlabel ''
 set ylabel 'microseconds per simulated second'
 set xtics rotate by 45 right font ',9'
 set key outside top center horizontal
-# the model rows come first, four per model (MuJoCo at h, Ostrich at h, 5 h, 10 h): x = row / 4
-f = 'compare/results/bench_models.csv'
+# the model rows only (the scaling rows would label the first tic): one MuJoCo row per model
+# (its tic), then three Ostrich rows (h, 5 h, 10 h) per model
+fm = '< grep ^model, compare/results/bench_models.csv | grep ,mujoco,'
+fo = '< grep ^model, compare/results/bench_models.csv | grep ,ostrich,'
 name(s) = s[strstrt(s, "/") + 1:]
-ok(e, k) = strcol(1) eq 'model' && strcol(5) eq e && $7 == k && strcol(16) eq 'ok'
-plot f skip 1 using (ok('mujoco', 1) ? floor($0 / 4) : NaN):12:xtic(name(strcol(2))) \
+ok(k) = $7 == k && strcol(16) eq 'ok'
+plot fm using 0:(strcol(16) eq 'ok' ? $12 : NaN):xtic(name(strcol(2))) \
        pt 7 ps 1.5 title 'MuJoCo 2.2.2 at h', \
-     f skip 1 using (ok('ostrich', 1) ? floor($0 / 4) : NaN):12 pt 5 title 'Ostrich at h', \
-     f skip 1 using (ok('ostrich', 5) ? floor($0 / 4) : NaN):12 pt 9 title 'Ostrich at 5 h', \
-     f skip 1 using (ok('ostrich', 10) ? floor($0 / 4) : NaN):12 pt 11 title 'Ostrich at 10 h'
+     fo using (ok(1) ? floor($0 / 3) : NaN):12 pt 5 title 'Ostrich at h', \
+     fo using (ok(5) ? floor($0 / 3) : NaN):12 pt 9 title 'Ostrich at 5 h', \
+     fo using (ok(10) ? floor($0 / 3) : NaN):12 pt 11 title 'Ostrich at 10 h'
 unset multiplot
