@@ -5,7 +5,8 @@
 # Runs two small models, a model Ostrich refuses (an actuator with a user gain) and --scaling 1,2 of
 # the humanoid, and checks the CSV: its columns, one row per engine and h, positive finite ratios,
 # converged shares in [0, 1], the refusal with its message (exit 0: a refusal is a result), the
-# scaling rows (nv 27 and 54) and both fits. Then: --max-wall stops runs and says so; a failed
+# scaling rows (nv 27 and 54) and both fits. Then: --repeat times runs several times; --max-wall
+# stops runs and says so; a failed
 # step is reported and exits 1; a missing model, an unwritable --csv directory and bad lists
 # exit 2 before measuring. Every check runs; the script exits 1 if any failed.
 set -euo pipefail
@@ -125,6 +126,14 @@ expect_csv "--max-wall: every run stopped after one step, and says so" \
   '[r["status"] for r in rows] == ["stopped"] * 3 and all(r["steps"] == "1" and
    "--max-wall" in r["message"] for r in rows)'
 
+# --repeat: each run timed 3 times from the same start, the median kept; the step counts are
+# those of one run (the same start every time)
+run bench models "$MODELS/cartpole.xml" --duration 0.05 --h-scale 2 --repeat 3 --csv "$tmp/out.csv"
+if [[ $rc -eq 0 ]]; then pass "--repeat 3: exit 0"; else fail "--repeat 3: expected exit 0"; fi
+expect_csv "--repeat 3: every run ok, the steps of one run, a positive time" \
+  '[r["status"] for r in rows] == ["ok"] * 3 and all(abs(num(r["sim_s"]) - 0.05) < 0.02
+   and positive(r["us_per_step"]) for r in rows) and positive(rows[1]["ratio_step"])'
+
 # a failed step (81 resting contacts where Ostrich may grow to 64) stops that run, is reported,
 # and exits 1
 run bench models "$MODELS/../tests/models/too_many_contacts.xml" --duration 0.01 --h-scale 2 \
@@ -152,6 +161,7 @@ expect_usage "a missing model" "$MODELS/cartpole.xml" "$tmp/missing.xml" --csv "
 expect_usage "an unwritable --csv directory" "$MODELS/cartpole.xml" --csv "$tmp/no/dir/x.csv"
 expect_usage "a bad --h-scale" "$MODELS/cartpole.xml" --h-scale 5,-1
 expect_usage "a bad --scaling" --scaling 1,x
+expect_usage "--repeat 0" "$MODELS/cartpole.xml" --repeat 0
 expect_usage "no model and no --scaling" --duration 1
 run bench models --help
 if [[ $rc -eq 0 ]] && grep -q -- "--scaling-steps" "$tmp/out"; then

@@ -83,12 +83,6 @@ typedef struct benchRow_ {        // one measured point
 } benchRow;
 
 
-static int compareDouble(const void* a, const void* b) {
-  double x = *(const double*)a, y = *(const double*)b;
-  return (x > y) - (x < y);
-}
-
-
 // synth's start distribution and initial command for nworld worlds (seeded)
 static void benchInputs(const mjModel* m, int nworld, int T, double h, mjtNum* q0,
                         mjtNum* ctrl) {
@@ -171,8 +165,7 @@ static int benchPoint(const mjModel* m, const char* device, int nworld, const be
     }
   }
   if (!bad) {
-    qsort(iters, a->repeat, sizeof(double), compareDouble);
-    row->iter_s = iters[a->repeat / 2];
+    row->iter_s = cli_median(iters, (int)a->repeat);
   }
   free(iters);
   free(gq);
@@ -181,8 +174,7 @@ static int benchPoint(const mjModel* m, const char* device, int nworld, const be
     size_t used = 0, total = 0;
     ost_batchMemory(b, &used, &total);
     ost_batchStatus(b, status);
-    qsort(times + 1, a->repeat, sizeof(double), compareDouble);
-    double med = times[1 + a->repeat / 2];
+    double med = cli_median(times + 1, (int)a->repeat);
     row->device = device;
     row->worlds = nworld;
     row->rollout_s = med;

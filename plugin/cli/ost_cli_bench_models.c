@@ -29,6 +29,7 @@
 #define MODELS_MAX_SCALES  16     // --h-scale entries
 #define MODELS_MAX_COPIES  32     // --scaling entries
 #define MODELS_PROGRESS_S  2.0    // seconds between progress lines of one run
+#define MODELS_MAX_REPEAT  101    // --repeat at most
 
 typedef struct modelsArgs_ {      // arguments of `ostrich bench models`
   const char* h_scale;            // comma list of step-size factors for Ostrich
@@ -40,6 +41,7 @@ typedef struct modelsArgs_ {      // arguments of `ostrich bench models`
   double      settle;             // untimed simulated seconds before the scaling steps
   double      max_wall;           // wall seconds after which a run stops
   long        scaling_steps;      // timed steps per engine and copy count
+  long        repeat;             // timed runs per model, engine and h (the median is kept)
   long        key;                // start keyframe, CLI_KEY_NONE: qpos0
   int         help;
 } modelsArgs;
@@ -52,6 +54,9 @@ static const cliOption kModelsOptions[] = {
   CLI_KEY_OPTION(modelsArgs),
   {"--max-wall", CLI_ARG_POSITIVE, offsetof(modelsArgs, max_wall), "SEC",
    "stop a run after SEC wall seconds, reported as stopped (default 20)"},
+  {"--repeat", CLI_ARG_COUNT, offsetof(modelsArgs, repeat), "R",
+   "time each model's runs R times from the same start and keep the median\n"
+   "wall time (default 1; a stopped run is not repeated; --scaling runs once)"},
   {"--scaling", CLI_ARG_STRING, offsetof(modelsArgs, scaling), "N1,N2,...",
    "also time models of N copies of the humanoid (e.g. 1,2,5,10,22,100)\n"
    "and fit log(us per step) against log(nv) for each engine"},
@@ -127,34 +132,49 @@ static void modelsMeasure(mjModel* m, mjData* d, long key, long nsettle, long ns
     }
   }
 
-  // timed steps (mj_resetData clears MuJoCo's warning counts)
-  if (nsettle <= 0) {
-    cli_resetStart(m, d, key);
+  // timed steps (mj_resetData clears MuJoCo's warning counts), --repeat times from the same
+  // start when the runs start from the reset state (each a cold start, so the same work), the
+  // median wall time kept; a stopped or failed run ends the repeats
+  int nrep = nsettle > 0 ? 1 : (int)a->repeat;
+  double wall[MODELS_MAX_REPEAT];
+  for (int rep = 0; rep < nrep && rep < MODELS_MAX_REPEAT && r->status == RUN_OK; rep++) {
+    if (nsettle <= 0) {
+      cli_resetStart(m, d, key);
+    }
+    long steps = 0, converged = 0;
+    double t0 = cli_now(), shown = t0, now = t0;
+    while (r->status == RUN_OK && steps < nstep) {
+      status = r->ostrich ? ost_step(m, d) : (mj_step(m, d), OST_OK);
+      if (stepFailed(status)) {
+        snprintf(r->msg, sizeof(r->msg), "step %ld (t = %.6g s): status %d: %s", steps + 1,
+                 d->time, status, ost_lastError(d));
+        r->status = RUN_FAILED;
+        break;
+      }
+      now = cli_now();
+      steps++;
+      converged += (status == OST_OK);
+      if (now - t0 > a->max_wall && steps < nstep) {
+        snprintf(r->msg, sizeof(r->msg), "stopped by --max-wall %g s after %ld of %ld steps",
+                 a->max_wall, steps, nstep);
+        r->status = RUN_STOPPED;
+      }
+      if (cli_progress() && now - shown > MODELS_PROGRESS_S) {
+        fprintf(stderr, "ostrich: bench models: %s, %s h = %g s: %ld of %ld steps, %.0f s\n",
+                r->label, r->ostrich ? "ostrich" : "mujoco", r->h, steps, nstep, now - t0);
+        shown = now;
+      }
+    }
+    wall[rep] = now - t0;
+    if (rep == 0 || r->status != RUN_OK) {
+      r->steps = steps;  // the same every repeat (deterministic) unless a repeat stopped
+      r->converged = converged;
+      r->wall_s = wall[rep];
+    }
+    if (r->status == RUN_OK && rep == nrep - 1) {
+      r->wall_s = cli_median(wall, nrep);
+    }
   }
-  double t0 = cli_now(), shown = t0, now = t0;
-  while (r->status == RUN_OK && r->steps < nstep) {
-    status = r->ostrich ? ost_step(m, d) : (mj_step(m, d), OST_OK);
-    if (stepFailed(status)) {
-      snprintf(r->msg, sizeof(r->msg), "step %ld (t = %.6g s): status %d: %s", r->steps + 1,
-               d->time, status, ost_lastError(d));
-      r->status = RUN_FAILED;
-      break;
-    }
-    now = cli_now();
-    r->steps++;
-    r->converged += (status == OST_OK);
-    if (now - t0 > a->max_wall && r->steps < nstep) {
-      snprintf(r->msg, sizeof(r->msg), "stopped by --max-wall %g s after %ld of %ld steps",
-               a->max_wall, r->steps, nstep);
-      r->status = RUN_STOPPED;
-    }
-    if (cli_progress() && now - shown > MODELS_PROGRESS_S) {
-      fprintf(stderr, "ostrich: bench models: %s, %s h = %g s: %ld of %ld steps, %.0f s\n",
-              r->label, r->ostrich ? "ostrich" : "mujoco", r->h, r->steps, nstep, now - t0);
-      shown = now;
-    }
-  }
-  r->wall_s = now - t0;
 
   // what MuJoCo reported on the way (a failed mj_step is never silent)
   if (cli_mujocoError() != mj_error && r->status != RUN_FAILED) {
@@ -315,7 +335,7 @@ static void modelsHelp(void) {
 
 int bench_models_main(int argc, char** argv) {
   modelsArgs a = {"5,10", NULL, "/usr/share/mujoco/model/humanoid/humanoid.xml", NULL, NULL, 1,
-                  0, 20, 50, CLI_KEY_NONE, 0};
+                  0, 20, 50, 1, CLI_KEY_NONE, 0};
   const char** path = (const char**)calloc(argc + 1, sizeof(char*));
   int npath = 0;
 
@@ -336,10 +356,11 @@ int bench_models_main(int argc, char** argv) {
   int nscale = parseList(a.h_scale, scale, MODELS_MAX_SCALES, 0);
   int ncopy = a.scaling ? parseList(a.scaling, copies, MODELS_MAX_COPIES, 1) : 0;
   int ok = path != NULL;
-  if (ok && (nscale < 0 || ncopy < 0 || a.scaling_steps < 1)) {
+  if (ok && (nscale < 0 || ncopy < 0 || a.scaling_steps < 1 || a.repeat < 1
+             || a.repeat > MODELS_MAX_REPEAT)) {
     cli_error("bench models: %s", nscale < 0 ? "--h-scale must be a list of positive numbers"
               : ncopy < 0 ? "--scaling must be a list of copy counts from 1 to 10000"
-              : "--scaling-steps must be >= 1");
+              : a.repeat < 1 || a.repeat > MODELS_MAX_REPEAT ? "--repeat must be in [1, 101]" : "--scaling-steps must be >= 1");
     ok = 0;
   }
   if (ok && npath == 0 && ncopy == 0) {

@@ -430,6 +430,18 @@ double cli_now(void) {
 }
 
 
+static int compareDouble(const void* a, const void* b) {
+  double x = *(const double*)a, y = *(const double*)b;
+  return (x > y) - (x < y);
+}
+
+
+double cli_median(double* v, int n) {
+  qsort(v, n, sizeof(double), compareDouble);
+  return v[n / 2];
+}
+
+
 //---------------------------------- Random stream -------------------------------------------------
 
 void cli_rngSeed(cliRng* rng, unsigned long long seed) {

@@ -196,6 +196,9 @@ void cli_jsonString(FILE* f, const char* s);
 // Seconds on the monotonic clock.
 double cli_now(void);
 
+// The median of v (n > 0 entries, sorted in place; the upper middle one when n is even).
+double cli_median(double* v, int n);
+
 
 //---------------------------------- Random stream -------------------------------------------------
 
