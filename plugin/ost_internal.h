@@ -192,6 +192,13 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h);
 // kept in k while the geoms stay near where it was built (ost_collision_mujoco.c)
 void ost_collision(ostCollisionCache* k, const mjModel* m, mjData* d);
 
+// MuJoCo 2.2.2's contact parameters of geoms g1, g2 as mj_collideGeoms sets them: explicit
+// pair ipair's own, or (ipair -1) the geoms' mixed: the higher priority geom's, else friction
+// the larger, solref mixed by solmix (direct, non-positive: the smaller), solimp mixed; friction
+// unpacked to 5 coefficients and clamped to mjMINMU
+void ost_contactPairParams(const mjModel* m, int g1, int g2, int ipair, mjtNum friction[5],
+                           mjtNum solref[mjNREF], mjtNum solimp[mjNIMP]);
+
 // the list must be decided again (the model changed); ost_collisionFree releases it
 void ost_collisionReset(ostCollisionCache* k);
 void ost_collisionFree(ostCollisionCache* k);

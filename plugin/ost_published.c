@@ -109,51 +109,20 @@ int ost_publishedCurrent(ostContext* c, const mjModel* m, const mjData* d) {
   X(ten_J, (m)->ntendon * (m)->nv) X(wrap_obj, 2 * (m)->nwrap) X(wrap_xpos, 6 * (m)->nwrap) \
   X(actuator_length, (m)->nu) X(actuator_moment, (m)->nu * (m)->nv)
 
-// MuJoCo 2.2.2's contact parameters for geoms g1, g2 (mj_collideGeoms and mj_contactParam,
-// engine_collision_driver.c): an explicit <pair> of the two geoms with this condim, margin and
-// gap gives its own; otherwise the geoms' mixed: friction as ost_mixFriction, solref and solimp
-// the higher priority geom's, or at equal priority mixed by solmix (solref's direct form,
-// non-positive, the smaller)
+// MuJoCo 2.2.2's contact parameters for geoms g1, g2 (mj_collideGeoms): an explicit <pair> of
+// the two geoms with this condim, margin and gap gives its own, otherwise the geoms' mixed
+// (ost_contactPairParams)
 static void contactParams(const mjModel* m, int g1, int g2, int condim, mjtNum margin,
                           mjtNum gap, mjContact* con) {
-  for (int i = 0; i < m->npair; i++) {
+  int ipair = -1;
+  for (int i = 0; i < m->npair && ipair < 0; i++) {
     int a = m->pair_geom1[i], b = m->pair_geom2[i];
     if (((a == g1 && b == g2) || (a == g2 && b == g1)) && m->pair_dim[i] == condim
         && m->pair_margin[i] == margin && m->pair_gap[i] == gap) {
-      mju_copy(con->friction, m->pair_friction + 5 * i, 5);
-      mju_copy(con->solref, m->pair_solref + mjNREF * i, mjNREF);
-      mju_copy(con->solimp, m->pair_solimp + mjNIMP * i, mjNIMP);
-      return;
+      ipair = i;
     }
   }
-  int p1 = m->geom_priority[g1], p2 = m->geom_priority[g2];
-  mjtNum f[3];
-  ost_mixFriction(m, g1, g2, f);
-  if (p1 != p2) {
-    int g = p1 > p2 ? g1 : g2;
-    mju_copy(con->solref, m->geom_solref + mjNREF * g, mjNREF);
-    mju_copy(con->solimp, m->geom_solimp + mjNIMP * g, mjNIMP);
-  } else {
-    mjtNum s1 = m->geom_solmix[g1], s2 = m->geom_solmix[g2], mix;
-    if (s1 >= mjMINVAL && s2 >= mjMINVAL) {
-      mix = s1 / (s1 + s2);
-    } else if (s1 < mjMINVAL && s2 < mjMINVAL) {
-      mix = 0.5;
-    } else {
-      mix = s1 < mjMINVAL ? 0 : 1;
-    }
-    const mjtNum *r1 = m->geom_solref + mjNREF * g1, *r2 = m->geom_solref + mjNREF * g2;
-    for (int k = 0; k < mjNREF; k++) {
-      con->solref[k] = r1[0] > 0 && r2[0] > 0 ? mix * r1[k] + (1 - mix) * r2[k]
-                                              : mju_min(r1[k], r2[k]);
-    }
-    const mjtNum *i1 = m->geom_solimp + mjNIMP * g1, *i2 = m->geom_solimp + mjNIMP * g2;
-    for (int k = 0; k < mjNIMP; k++) {
-      con->solimp[k] = mix * i1[k] + (1 - mix) * i2[k];
-    }
-  }
-  mjtNum fr[5] = {f[0], f[0], f[1], f[2], f[2]};
-  mju_copy(con->friction, fr, 5);
+  ost_contactPairParams(m, g1, g2, ipair, con->friction, con->solref, con->solimp);
 }
 
 
