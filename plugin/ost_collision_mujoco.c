@@ -13,12 +13,14 @@
 // - a dynamic pair yields contacts only if its bounding spheres, grown by the pair's margin,
 //   overlap (or, with a plane, the other geom's sphere reaches the plane's margin); a pair
 //   that does overlaps in every frame the broadphase could pick, so the broadphase's list
-//   decides only which rejected pairs are tried, never which contacts come out;
+//   decides only which rejected pairs are tried, never which contacts come out; the world's
+//   geoms without a bounding sphere (MuJoCo 2.2.2 gives a height field none) pair with every
+//   body whatever the frame, and are listed with every geom;
 // - contacts come out ordered by body-pair signature, then by geom within each body, with
 //   explicit <pair>s merged by signature; the list keeps that order.
 // Models where the broadphase's frame does decide (a margin override, a geom without a
-// bounding sphere other than a static plane, a plane or height field on a static body other
-// than the world, a user contact filter) take mj_collision itself.
+// bounding sphere off the world body, a plane or height field on a static body other than the
+// world, a user contact filter) take mj_collision itself.
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -37,8 +39,8 @@ static int eligible(const mjModel* m) {
   }
   for (int g = 0; g < m->ngeom; g++) {
     int b = m->geom_bodyid[g], type = m->geom_type[g];
-    if (!(m->geom_rbound[g] > 0) && !(type == mjGEOM_PLANE && b == 0)) {
-      return 0;
+    if (!(m->geom_rbound[g] > 0) && b != 0) {
+      return 0;  // MuJoCo's sweep gives it a box of its margin alone
     }
     // a static body other than the world with a plane or height field pairs with every body
     // in MuJoCo's broadphase and again in its sweep, where its box overlaps
@@ -161,7 +163,7 @@ static int buildList(ostCollisionCache* k, const mjModel* m, const mjData* d) {
   int n = 0;
   for (int i = 0; i < ng; i++) {
     int g = k->order[i];
-    if (m->geom_type[g] != mjGEOM_PLANE) {
+    if (m->geom_rbound[g] > 0) {
       mjtNum lo = d->geom_xpos[3 * g] - reach(m, g, s);
       int j = n++;
       for (; j > 0 && d->geom_xpos[3 * k->order[j - 1]] - reach(m, k->order[j - 1], s) > lo;
@@ -172,8 +174,8 @@ static int buildList(ostCollisionCache* k, const mjModel* m, const mjData* d) {
     }
   }
   for (int g = 0, p = n; g < ng; g++) {
-    if (m->geom_type[g] == mjGEOM_PLANE) {
-      k->order[p++] = g;  // planes after the sweep's geoms
+    if (!(m->geom_rbound[g] > 0)) {
+      k->order[p++] = g;  // the world's unbounded geoms after the sweep's
     }
   }
   for (int a = 0; a < n; a++) {
@@ -199,15 +201,18 @@ static int buildList(ostCollisionCache* k, const mjModel* m, const mjData* d) {
     }
   }
   for (int p = n; p < ng; p++) {
-    int gp = k->order[p];
+    // a plane: the geoms whose spheres come within reach of it; another unbounded geom of the
+    // world (a height field: no sphere filter in MuJoCo, whose broadphase pairs the world with
+    // every body): every geom
+    int gp = k->order[p], plane = m->geom_type[gp] == mjGEOM_PLANE;
     const mjtNum* xp = d->geom_xpos + 3 * gp;
     const mjtNum* R = d->geom_xmat + 9 * gp;
     for (int a = 0; a < n; a++) {
       int g = k->order[a];
       const mjtNum* x = d->geom_xpos + 3 * g;
       mjtNum dist = (x[0] - xp[0]) * R[2] + (x[1] - xp[1]) * R[5] + (x[2] - xp[2]) * R[8];
-      if (dist <= reach(m, g, 2 * s) + m->geom_margin[gp] && pairAdmissible(m, gp, g)
-          && addCandidate(k, m, gp, g)) {
+      if ((!plane || dist <= reach(m, g, 2 * s) + m->geom_margin[gp])
+          && pairAdmissible(m, gp, g) && addCandidate(k, m, gp, g)) {
         return 1;
       }
     }
@@ -466,12 +471,12 @@ void ost_collisionFree(ostCollisionCache* k) {
 }
 
 
-// the model's length scale: the mean bounding radius of the geoms that are not planes
+// the model's length scale: the mean bounding radius of the geoms that have one
 static mjtNum scaleOf(const mjModel* m) {
   mjtNum sum = 0;
   int n = 0;
   for (int g = 0; g < m->ngeom; g++) {
-    if (m->geom_type[g] != mjGEOM_PLANE) {
+    if (m->geom_rbound[g] > 0) {
       sum += m->geom_rbound[g];
       n++;
     }
