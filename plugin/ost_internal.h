@@ -79,6 +79,7 @@ typedef struct ostContext_ {
   ostTotals      totals;          // counts of all steps (ost_totals)
   char           err[512];        // message of the last failure
   int*           servo;           // 1 if actuator i is an implicit servo row     (nu)
+  int            servo_any;       // 1 if any is: the iterates need MuJoCo's transmission
   unsigned char* ten_implicit;    // 1 if tendon t's spring and damper are an implicit row this
                                   // substep (mujocoStart decides, ost_rowsMujoco builds) (ntendon)
   mjtNum*        ten_dt;          // tendon t's J M^-1 J', refreshed at a cold step and where

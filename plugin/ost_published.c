@@ -96,7 +96,7 @@ int ost_publishedCurrent(ostContext* c, const mjModel* m, const mjData* d) {
 }
 
 
-// MuJoCo's position stage that mj_kinematics, mj_comPos, mj_tendon and mj_transmission write
+// MuJoCo's position stage that mj_kinematics, mj_comPos and mj_tendon write
 // (mjxmacro.h's order), as (name, length): the iterates' mjData holds them at the last iterate
 #define OST_POSITION_STAGE(X, m)                                                           \
   X(xpos, 3 * (m)->nbody) X(xquat, 4 * (m)->nbody) X(xmat, 9 * (m)->nbody)                 \
@@ -106,7 +106,10 @@ int ost_publishedCurrent(ostContext* c, const mjModel* m, const mjData* d) {
   X(cdof, 6 * (m)->nv) X(cinert, 10 * (m)->nbody) X(ten_wrapadr, (m)->ntendon)             \
   X(ten_wrapnum, (m)->ntendon) X(ten_J_rownnz, (m)->ntendon) X(ten_J_rowadr, (m)->ntendon) \
   X(ten_J_colind, (m)->ntendon * (m)->nv) X(ten_length, (m)->ntendon)                      \
-  X(ten_J, (m)->ntendon * (m)->nv) X(wrap_obj, 2 * (m)->nwrap) X(wrap_xpos, 6 * (m)->nwrap) \
+  X(ten_J, (m)->ntendon * (m)->nv) X(wrap_obj, 2 * (m)->nwrap) X(wrap_xpos, 6 * (m)->nwrap)
+
+// and mj_transmission's, which the iterates compute only where servo rows read them
+#define OST_TRANSMISSION_STAGE(X, m) \
   X(actuator_length, (m)->nu) X(actuator_moment, (m)->nu * (m)->nv)
 
 // MuJoCo 2.2.2's contact parameters for geoms g1, g2 (mj_collideGeoms): an explicit <pair> of
@@ -212,6 +215,11 @@ int ost_publishPosition(ostContext* c, mjData* d) {
   memcpy(d->qpos, dg->qpos, mo->nq * sizeof(mjtNum));
 #define X(name, len) memcpy(d->name, dg->name, (size_t)(len) * sizeof(*d->name));
   OST_POSITION_STAGE(X, mo)
+  if (c->servo_any) {
+    OST_TRANSMISSION_STAGE(X, mo)
+  } else {
+    mj_transmission(mo, d);  // from the kinematics and tendons just copied
+  }
 #undef X
   d->ncon = dg->ncon;
   memcpy(d->contact, dg->contact, dg->ncon * sizeof(mjContact));

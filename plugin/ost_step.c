@@ -119,8 +119,10 @@ static int prepareSynced(ostContext* c, const mjModel* m, int changed) {
   if ((status = ost_checkStep(m, &c->opt, c->err, sizeof(c->err)))) {
     return status;
   }
+  c->servo_any = 0;
   for (int i = 0; i < m->nu; i++) {
     c->servo[i] = ost_actuatorKind(m, i, NULL, 0) == 1;
+    c->servo_any |= c->servo[i];
   }
   ost_setMargins(c->mo, m, c->opt.margin);
   ost_collisionReset(&c->col);
