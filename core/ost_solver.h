@@ -109,8 +109,7 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNu
   X(ostNum, krylov, OST_SOLVER_ROWS(nrow_max), OST_KRYLOV + 1) /* GMRES basis */                   \
   X(ostNum, hess, OST_SOLVER_ROWS(OST_KRYLOV + 1), OST_KRYLOV + 4) /* Hessenberg, rotations */     \
   X(ostNum, Ad, OST_SOLVER_ROWS(OST_NDENSE(nrow_max)), OST_NDENSE(nrow_max)) /* dense Schur, LU */ \
-  X(ostNum, Yh, OST_SOLVER_ROWS(OST_NDENSE(nrow_max)), ncol) /* rows' half-solves L^-T J_i' */   \
-  X(ostNum, Yt, OST_SOLVER_ROWS(OST_NDENSE(nrow_max)), nv) /* the same by dof (column-major) */   \
+  X(ostNum, Yt, OST_SOLVER_ROWS(OST_NDENSE(nrow_max)), nv) /* rows' half-solves L^-T J_i', by dof */ \
   X(int, Apiv, OST_SOLVER_ROWS(OST_NDENSE(nrow_max)), 1) /* the LU's pivots                   */   \
   X(ostRow, rows_relax, OST_SOLVER_ROWS(nrow_max), 1) /* violations kept this step (relax) */     \
   X(int, Jnnz, OST_SOLVER_ROWS(nrow_max), 1) /* columns in row i's pattern (osti_rowStore)  */   \
@@ -1323,42 +1322,25 @@ OST_HD ostRowSet osti_islandSet(const ostWorld* w, int I) {
 
 
 #ifndef OST_NUM_TYPE  // the forward solver runs in doubles (the LU takes double)
-// A = J Mt^-1 J' + c / h on a set (n x n, symmetric) from the rows' half-solves in w->Yh
-// (osti_directSet): A_lm = sum_c y_l[c] y_m[c] over the columns two patterns share, in
-// ascending c. The half-solves are laid out by dof (Yt: dof c's entries of every row, zero off
-// a row's pattern), and row l's sums run over its own pattern with the products of all m >= l
-// at once: a contiguous loop the compiler vectorizes without reordering any one sum. Each
-// A_lm gets the products of the shared columns in ascending c, plus exact zeros where only one
-// pattern has a column, which leave a sum unchanged (it starts at +0 and adding +-0 to +0 or to
-// a non-zero gives the same), so A is bitwise the sum over the shared columns alone.
+// A = J Mt^-1 J' + c / h on a set (n x n, symmetric) from the rows' half-solves, laid out by
+// dof in w->Yt (osti_directSet: dof c's entries of every row, zero off a row's pattern):
+// A_lm = sum_c y_l[c] y_m[c] over the columns two patterns share, in ascending c. Row l's sums
+// run over its own pattern with the products of all m >= l at once: a contiguous loop the
+// compiler vectorizes without reordering any one sum. Each A_lm gets the products of the shared
+// columns in ascending c, plus exact zeros where only one pattern has a column, which leave a
+// sum unchanged (it starts at +0 and adding +-0 to +0 or to a non-zero gives the same), so A is
+// bitwise the sum over the shared columns alone.
 OST_HD void osti_directAssemble(ostWorld* w, const ostRowSet* set, ostNum* A) {
   int n = set->n, ncol = w->ncol;
-  ostNum* Yt = w->Yt;
-  // zero the set's dofs' columns (every dof for the whole set), then scatter the rows
-  if (set->tree) {
-    for (int t = 0; t < set->ntree; t++) {
-      for (int c = set->tree[t]; c < w->tree_end[set->tree[t]]; c++) {
-        for (int m = 0; m < n; m++) Yt[(size_t)c * n + m] = 0;
-      }
-    }
-  } else {
-    for (size_t k = 0; k < (size_t)w->nv * n; k++) Yt[k] = 0;
-  }
+  const ostNum* Yt = w->Yt;
   for (int l = 0; l < n; l++) {
     int i = OST_SET_ROW(set, l);
     const int* il = w->Jind + (size_t)i * ncol;
-    const ostNum* Yl = w->Yh + (size_t)l * ncol;
-    for (int a = 0; a < w->Jnnz[i]; a++) Yt[(size_t)il[a] * n + l] = Yl[a];
-  }
-  for (int l = 0; l < n; l++) {
-    int i = OST_SET_ROW(set, l);
-    const int* il = w->Jind + (size_t)i * ncol;
-    const ostNum* Yl = w->Yh + (size_t)l * ncol;
     ostNum* Al = A + (size_t)l * n;
     for (int m = l; m < n; m++) Al[m] = 0;
     for (int a = 0; a < w->Jnnz[i]; a++) {
       const ostNum* col = Yt + (size_t)il[a] * n;
-      ostNum y = Yl[a];
+      ostNum y = col[l];
       for (int m = l; m < n; m++) Al[m] += col[m] * y;
     }
     for (int m = l + 1; m < n; m++) A[(size_t)m * n + l] = Al[m];
@@ -1380,31 +1362,42 @@ OST_HD int osti_directSet(ostWorld* w, const ostRowSet* set, ostNum* x, const os
   int n = set->n, nv = w->nv, ncol = w->ncol;
   const int* parent = w->dof_parent;
   ostNum* y = w->tmp + nv;  // dense scratch on a pattern
+  // the half-solves go to Yt by dof (osti_directAssemble): the set's dofs' columns (every dof
+  // for the whole set) zeroed first
+  ostNum* Yt = w->Yt;
+  if (set->tree) {
+    for (int t = 0; t < set->ntree; t++) {
+      for (int c = set->tree[t]; c < w->tree_end[set->tree[t]]; c++) {
+        for (int m = 0; m < n; m++) Yt[(size_t)c * n + m] = 0;
+      }
+    }
+  } else {
+    for (size_t k = 0; k < (size_t)nv * n; k++) Yt[k] = 0;
+  }
   for (int l = 0; l < n; l++) {
     int i = OST_SET_ROW(set, l), cnt = w->Jnnz[i];
     const ostNum* v = w->J + (size_t)i * ncol;
     const int* ind = w->Jind + (size_t)i * ncol;
-    for (int k = 0; k < cnt; k++) {
-      y[ind[k]] = v[k];
-    }
-    ostNum* Y = w->Yh + (size_t)l * ncol;
 #if OST_ROW_CACHE
     if (w->yrow) {
       // the evaluated iterate's half-solve, as osti_rowDiag computed it from the same J and M
       const ostNum* yr = w->yrow + (size_t)i * ncol;
       for (int k = cnt - 1; k >= 0; k--) {
-        Y[k] = yr[k] / sqrt(w->M[(size_t)ind[k] * nv + ind[k]]);
+        Yt[(size_t)ind[k] * n + l] = yr[k] / sqrt(w->M[(size_t)ind[k] * nv + ind[k]]);
       }
       continue;
     }
 #endif
+    for (int k = 0; k < cnt; k++) {
+      y[ind[k]] = v[k];
+    }
     for (int k = cnt - 1; k >= 0; k--) {
       int c = ind[k];
       ostNum yc = y[c];
       for (int j = parent[c]; j >= 0; j = parent[j]) {
         y[j] -= w->M[(size_t)c * nv + j] * yc;
       }
-      Y[k] = yc / sqrt(w->M[(size_t)c * nv + c]);  // D^-1/2 y: A_lm = Y_l . Y_m
+      Yt[(size_t)c * n + l] = yc / sqrt(w->M[(size_t)c * nv + c]);  // D^-1/2 y
     }
   }
   ostNum* A = w->Ad;
