@@ -281,39 +281,36 @@ void ost_contactPairParams(const mjModel* m, int g1, int g2, int ipair, mjtNum f
     mju_copy(friction, m->pair_friction + 5 * ipair, 5);
     mju_copy(solref, m->pair_solref + mjNREF * ipair, mjNREF);
     mju_copy(solimp, m->pair_solimp + mjNIMP * ipair, mjNIMP);
-  } else if (m->geom_priority[g1] != m->geom_priority[g2]) {
-    int gp = m->geom_priority[g1] > m->geom_priority[g2] ? g1 : g2;
-    for (int i = 0; i < 3; i++) {
-      friction[2 * i] = m->geom_friction[3 * gp + i];
-    }
-    mju_copy(solref, m->geom_solref + mjNREF * gp, mjNREF);
-    mju_copy(solimp, m->geom_solimp + mjNIMP * gp, mjNIMP);
   } else {
-    for (int i = 0; i < 3; i++) {
-      friction[2 * i] = mju_max(m->geom_friction[3 * g1 + i], m->geom_friction[3 * g2 + i]);
-    }
-    // the solver mix: by solmix where both are set, else 1/2, or all to the one set
-    mjtNum s1 = m->geom_solmix[g1], s2 = m->geom_solmix[g2], mix;
-    if (s1 >= mjMINVAL && s2 >= mjMINVAL) {
-      mix = s1 / (s1 + s2);
-    } else if (s1 < mjMINVAL && s2 < mjMINVAL) {
-      mix = 0.5;
+    // friction: the higher priority geom's, else the larger, 3 coefficients unpacked to 5
+    mjtNum fr[3];
+    ost_mixFriction(m, g1, g2, fr);
+    mjtNum unpacked[5] = {fr[0], fr[0], fr[1], fr[2], fr[2]};
+    mju_copy(friction, unpacked, 5);
+    if (m->geom_priority[g1] != m->geom_priority[g2]) {
+      int gp = m->geom_priority[g1] > m->geom_priority[g2] ? g1 : g2;
+      mju_copy(solref, m->geom_solref + mjNREF * gp, mjNREF);
+      mju_copy(solimp, m->geom_solimp + mjNIMP * gp, mjNIMP);
     } else {
-      mix = s1 < mjMINVAL ? 0.0 : 1.0;
+      // the solver mix: by solmix where both are set, else 1/2, or all to the one set
+      mjtNum s1 = m->geom_solmix[g1], s2 = m->geom_solmix[g2], mix;
+      if (s1 >= mjMINVAL && s2 >= mjMINVAL) {
+        mix = s1 / (s1 + s2);
+      } else if (s1 < mjMINVAL && s2 < mjMINVAL) {
+        mix = 0.5;
+      } else {
+        mix = s1 < mjMINVAL ? 0.0 : 1.0;
+      }
+      const mjtNum* ref1 = m->geom_solref + mjNREF * g1;
+      const mjtNum* ref2 = m->geom_solref + mjNREF * g2;
+      for (int i = 0; i < mjNREF; i++) {
+        // positive: stiffness and damping mixed; direct (negative): the smaller
+        solref[i] = ref1[0] > 0 && ref2[0] > 0 ? mix * ref1[i] + (1 - mix) * ref2[i]
+                                               : mju_min(ref1[i], ref2[i]);
+      }
+      mju_scl(solimp, m->geom_solimp + mjNIMP * g1, mix, mjNIMP);
+      mju_addToScl(solimp, m->geom_solimp + mjNIMP * g2, 1 - mix, mjNIMP);
     }
-    const mjtNum* ref1 = m->geom_solref + mjNREF * g1;
-    const mjtNum* ref2 = m->geom_solref + mjNREF * g2;
-    for (int i = 0; i < mjNREF; i++) {
-      // positive: stiffness and damping mixed; direct (negative): the smaller
-      solref[i] = ref1[0] > 0 && ref2[0] > 0 ? mix * ref1[i] + (1 - mix) * ref2[i]
-                                             : mju_min(ref1[i], ref2[i]);
-    }
-    mju_scl(solimp, m->geom_solimp + mjNIMP * g1, mix, mjNIMP);
-    mju_addToScl(solimp, m->geom_solimp + mjNIMP * g2, 1 - mix, mjNIMP);
-  }
-  if (ipair < 0) {
-    friction[1] = friction[0];  // 3 coefficients unpacked to 5
-    friction[3] = friction[4];
   }
   for (int i = 0; i < 5; i++) {
     friction[i] = mju_max(mjMINMU, friction[i]);
