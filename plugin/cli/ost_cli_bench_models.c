@@ -135,9 +135,9 @@ static void modelsMeasure(mjModel* m, mjData* d, long key, long nsettle, long ns
   // timed steps (mj_resetData clears MuJoCo's warning counts), --repeat times from the same
   // start when the runs start from the reset state (each a cold start, so the same work), the
   // median wall time kept; a stopped or failed run ends the repeats
-  int nrep = nsettle > 0 ? 1 : (int)a->repeat;
+  int nrep = nsettle > 0 ? 1 : (int)a->repeat, done = 0;
   double wall[MODELS_MAX_REPEAT];
-  for (int rep = 0; rep < nrep && rep < MODELS_MAX_REPEAT && r->status == RUN_OK; rep++) {
+  while (done < nrep && r->status == RUN_OK) {
     if (nsettle <= 0) {
       cli_resetStart(m, d, key);
     }
@@ -165,16 +165,13 @@ static void modelsMeasure(mjModel* m, mjData* d, long key, long nsettle, long ns
         shown = now;
       }
     }
-    wall[rep] = now - t0;
-    if (rep == 0 || r->status != RUN_OK) {
-      r->steps = steps;  // the same every repeat (deterministic) unless a repeat stopped
-      r->converged = converged;
-      r->wall_s = wall[rep];
-    }
-    if (r->status == RUN_OK && rep == nrep - 1) {
-      r->wall_s = cli_median(wall, nrep);
-    }
+    wall[done++] = now - t0;
+    r->steps = steps;  // the same every repeat (deterministic) unless one stopped or failed
+    r->converged = converged;
   }
+  // the median of complete runs, or the run that stopped or failed (none: the untimed step
+  // was refused or failed)
+  r->wall_s = !done ? 0 : r->status == RUN_OK ? cli_median(wall, done) : wall[done - 1];
 
   // what MuJoCo reported on the way (a failed mj_step is never silent)
   if (cli_mujocoError() != mj_error && r->status != RUN_FAILED) {
@@ -360,7 +357,8 @@ int bench_models_main(int argc, char** argv) {
              || a.repeat > MODELS_MAX_REPEAT)) {
     cli_error("bench models: %s", nscale < 0 ? "--h-scale must be a list of positive numbers"
               : ncopy < 0 ? "--scaling must be a list of copy counts from 1 to 10000"
-              : a.repeat < 1 || a.repeat > MODELS_MAX_REPEAT ? "--repeat must be in [1, 101]" : "--scaling-steps must be >= 1");
+              : a.scaling_steps < 1 ? "--scaling-steps must be >= 1"
+              : "--repeat must be in [1, 101]");
     ok = 0;
   }
   if (ok && npath == 0 && ncopy == 0) {
