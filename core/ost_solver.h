@@ -59,6 +59,25 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNu
 // islands of at most this many rows solve their Schur system directly (osti_directSet): the
 // dense Schur matrix from the rows' half-solves and an LU factor, instead of PCR or GMRES
 #define OST_DIRECT_MAX 96
+// a host context's world (ostu_worldInitFor's solver = 2) holds dense arrays for islands of up to
+// this many rows: an island above OST_DIRECT_MAX rows is solved by PCR or GMRES, and directly
+// where a Krylov solve stopped at its budget far from the solution (OST_DIRECT_FALLBACK), as
+// are the Newton loop's later large islands (ostWorld.direct_large). Measured on MuJoCo's rope
+// lying on its floor (one island of 135 rows, 46 dofs, 1.5 s at its own h): GMRES cut at
+// pcr_iter left Newton converging linearly (190 iterates per step, 76 ms, 104 of 750 steps
+// unconverged); with direct solves 14 iterates, 4.3 ms, 2 unconverged. The arrays cost
+// min(nrow_max, this)^2 doubles (4.7 MB at the cap), allocated once per context
+#define OST_DIRECT_HOST_MAX 768
+// and only where its dense factor costs at most this many Krylov iterations of the island
+// (osti_directAffordable): MuJoCo's softbox (islands of up to 798 rows on 224 dofs) took 63 ms
+// per step with each of its islands of at most 768 rows solved directly after an exhausted
+// Krylov solve, 12 without; the rope's and the loop's islands (120-400 rows) stay within it
+#define OST_DIRECT_KRYLOV 1024
+// a Krylov solve of such an island that stopped at its budget with a relative residual above
+// this (Jacobi norm; osti_schurSolveSet) is done again directly. Not lower: GMRES's truncated
+// answers (median relative residual 0.2) serve a falling cloth's Newton loop, and 1e-4 made its
+// steps 2.5 times dearer and grid2pin's 1.5 times, at the rope's and the loop's speed
+#define OST_DIRECT_FALLBACK 1e-2
 // the row half-solve cache (ostWorld.yrow) exists in host double builds only: CUDA kernels and
 // the dual-number builds of the adjoint compile the code without it
 #if !defined(__CUDACC__) && !defined(OST_NUM_TYPE)
@@ -66,7 +85,11 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNu
 #else
 #define OST_ROW_CACHE 0
 #endif
-#define OST_NDENSE(nrow_max) ((nrow_max) < OST_DIRECT_MAX ? (nrow_max) : OST_DIRECT_MAX)
+// rows of the dense arrays of a world with `solver` (ostu_worldInitFor): batches' worlds
+// (solver 1, also on the GPU) keep OST_DIRECT_MAX, host contexts (2) OST_DIRECT_HOST_MAX
+#define OST_DENSE_CAP(solver) ((solver) == 2 ? OST_DIRECT_HOST_MAX : OST_DIRECT_MAX)
+#define OST_NDENSE(nrow_max)                                                                   \
+  ((nrow_max) < OST_DENSE_CAP(solver) ? (nrow_max) : OST_DENSE_CAP(solver))
 
 // One world's arrays. The X-macro is the single description of the layout: it drives the size
 // of the allocation and the pointer setup (type, name, rows, cols). Arrays only the Newton
@@ -175,6 +198,11 @@ typedef struct ostWorld_ {        // one world: sizes and pointers into one allo
                                   // (such contacts marked in cpl_row; osti_newton)
   int    cpl_n;                   // rows of cpl_row in use: the most rows a direction of this
                                   // Newton loop had (entries beyond are stale, never read)
+  int    ndense;                  // rows the dense Schur arrays hold (Ad, Yt; 0: none)
+  int    direct_large;            // 1 once a Krylov solve of an island above OST_DIRECT_MAX
+                                  // rows that ndense holds stopped at pcr_iter in this Newton
+                                  // loop: such islands are then solved directly
+                                  // (osti_schurSolveSet)
 #define X(type, name, r, c) type* name;
   OST_WORLD_ARRAYS(X)
 #undef X
@@ -197,7 +225,8 @@ OST_HD int ostu_rowWidth(const int* dof_parent, int nv) {
 
 
 // bytes needed by one world with rows of at most ncol columns, each array 64-byte aligned
-// (solver = 0: without the solver's arrays, dense rows of nv)
+// (solver = 0: without the solver's arrays, dense rows of nv; 1: a batch's world; 2: a host
+// context's, whose dense arrays take larger islands, OST_DENSE_CAP)
 OST_HD size_t ostu_worldSizeFor(int nv, int ncol, int nrow_max, int solver) {
   size_t sz = 0;
 #define X(type, name, r, c) sz += (((size_t)(r) * (c) * sizeof(type) + 63) / 64) * 64;
@@ -237,6 +266,8 @@ OST_HD void ostu_worldInitFor(ostWorld* w, void* buf, int nv, int ncol, int nrow
   w->op_version = 0;
   w->sat_used = w->sat_off = 0;
   w->cpl_used = w->cpl_n = 0;
+  w->ndense = solver ? OST_NDENSE(nrow_max) : 0;
+  w->direct_large = 0;
 #define X(type, name, r, c)                                         \
   w->name = (size_t)(r) * (size_t)(c) != 0 ? (type*)p : NULL;       \
   p += (((size_t)(r) * (c) * sizeof(type) + 63) / 64) * 64;
@@ -1434,6 +1465,16 @@ OST_HD int osti_directSet(ostWorld* w, const ostRowSet* set, ostNum* x, const os
 #endif
 
 
+// 1 if the dense factor of a set costs at most OST_DIRECT_KRYLOV Krylov iterations on it: n^3 / 3
+// flops (a Cholesky; the LU of a sliding coupling twice that) against about 4 times the sum of
+// the rows' pattern sizes per iteration (a product with J, one with J' and a tree solve)
+OST_HD int osti_directAffordable(const ostWorld* w, const ostRowSet* set) {
+  double krylov = 0, n = set->n;
+  for (int l = 0; l < set->n; l++) krylov += 4.0 * w->Jnnz[OST_SET_ROW(set, l)];
+  return n * n * n / 3 <= OST_DIRECT_KRYLOV * krylov;
+}
+
+
 #define OSTRICH_CORE_OST_SOLVER_H_INSIDE
 #include "ost_envelope.h"
 #undef OSTRICH_CORE_OST_SOLVER_H_INSIDE
@@ -1441,11 +1482,21 @@ OST_HD int osti_directSet(ostWorld* w, const ostRowSet* set, ostNum* x, const os
 
 // A x = b on a set: directly when it is small enough (osti_directSet), or on the host when its
 // envelope factor is cheap enough (osti_envelopeSet), else by GMRES where a sliding coupling
-// makes A non-symmetric and by PCR otherwise; returns the iterations used
+// makes A non-symmetric and by PCR otherwise; a Krylov solve that stopped at its budget far from
+// the solution is done again directly where the world's dense arrays hold the set and the factor
+// is affordable (a host world, OST_DIRECT_HOST_MAX), or by the envelope where it failed outright;
+// returns the iterations used (a direct solve counts one)
 OST_HD int osti_schurSolveSet(ostWorld* w, const ostRowSet* set, ostNum* x, const ostNum* b,
                               const ostSolverOptions* opt) {
+  int small = set->n <= OST_DIRECT_MAX;
+  int dense = 0;  // a direct solve may be made (set below in host and GPU double builds)
 #ifndef OST_NUM_TYPE
-  if (w->Ad && w->dof_parent && set->n <= OST_NDENSE(w->nrow_max)) {
+  // directly: up to OST_DIRECT_MAX rows always; up to the world's dense rows, where the factor
+  // is affordable, once a Krylov solve of a larger island stopped at its budget in this Newton
+  // loop (direct_large, below)
+  dense = w->Ad && w->dof_parent && set->n <= w->ndense
+          && (small || osti_directAffordable(w, set));
+  if (dense && small) {
     int it = osti_directSet(w, set, x, b);
     if (it) {
       return it;
@@ -1453,18 +1504,24 @@ OST_HD int osti_schurSolveSet(ostWorld* w, const ostRowSet* set, ostNum* x, cons
   }
 #endif
 #if OST_ROW_CACHE
-  int large = set->n > OST_NDENSE(w->nrow_max);
-  if (large && osti_envelopeSet(w, set, x, b, 0)) {
+  if (!small && osti_envelopeSet(w, set, x, b, 0)) {  // a kept factor, or the geometric term's
     return 1;
+  }
+#endif
+#ifndef OST_NUM_TYPE
+  if (dense && !small && w->direct_large) {
+    int it = osti_directSet(w, set, x, b);
+    if (it) {
+      return it;
+    }
   }
 #endif
   int it = osti_hasSlidingCouplingSet(w, set)
                ? osti_gmresSet(w, set, x, b, opt->pcr_iter, opt->pcr_tol)
                : osti_pcrSet(w, set, x, b, opt->pcr_iter, opt->pcr_tol);
-#if OST_ROW_CACHE
-  if (large && it >= opt->pcr_iter && w->env) {
+  if (!small && it >= opt->pcr_iter && (dense || w->env)) {
     // the Krylov solve ran out of budget: its relative residual |A x - b| / |b| in the Jacobi
-    // preconditioner's norm (that of PCR) decides whether it failed outright
+    // preconditioner's norm (that of PCR) decides whether it failed
     ostNum* r = w->pcr + (size_t)w->nrow_max;
     osti_newtonApplySet(w, set, r, x);
     ostNum rr = 0, bb = 0;
@@ -1474,11 +1531,26 @@ OST_HD int osti_schurSolveSet(ostWorld* w, const ostRowSet* set, ostNum* x, cons
       rr += (r[l] - b[l]) * (r[l] - b[l]) * p;
       bb += b[l] * b[l] * p;
     }
+#ifndef OST_NUM_TYPE
+    if (dense && rr > OST_DIRECT_FALLBACK * OST_DIRECT_FALLBACK * bb) {
+      // inexact enough to leave Newton converging linearly: this island and the loop's later
+      // large ones go direct
+      w->direct_large = 1;
+      ostNum* keep = w->pcr + (size_t)5 * w->nrow_max;  // the Krylov answer, if the factor fails
+      for (int l = 0; l < set->n; l++) keep[l] = x[l];
+      int itd = osti_directSet(w, set, x, b);
+      if (itd) {
+        return it + itd;
+      }
+      for (int l = 0; l < set->n; l++) x[l] = keep[l];
+    }
+#endif
+#if OST_ROW_CACHE
     if (rr > OST_ENV_FALLBACK * OST_ENV_FALLBACK * bb && osti_envelopeSet(w, set, x, b, 1)) {
       return it + 1;
     }
-  }
 #endif
+  }
   return it;
 }
 
@@ -1659,6 +1731,7 @@ OST_HD void osti_startStep(ostWorld* w, const ostNum* u, int warm) {
   }
   w->nrow_prev = warm ? w->nrow_warm : 0;
   w->prev_jac = 0;  // the last step's rows carry multipliers, not this step's Jacobians
+  w->direct_large = 0;
   for (int i = 0; i < w->nrow_prev; i++) {
     w->rows_prev[i] = w->rows_warm[i];
     w->lambda_prev[i] = w->lambda_warm[i];

@@ -129,7 +129,7 @@ int ost_growCapacity(ostContext* c, int ncon, int njmax) {
   const mjModel* m = c->m;
   int nrow_max = ost_rowCapacityFor(m, ncon);
   int ncol = ost_rowWidth(m);
-  size_t sz = ostu_worldSize(m->nv, ncol, nrow_max);
+  size_t sz = ostu_worldSizeFor(m->nv, ncol, nrow_max, 2);  // a host world (OST_DENSE_CAP)
   void* buf = aligned_alloc(64, (sz + 63) / 64 * 64);
   if (!buf) {
     return OST_ERR_MEMORY;
@@ -151,7 +151,7 @@ int ost_growCapacity(ostContext* c, int ncon, int njmax) {
   c->world_buf = buf;
   c->geo_buf = gbuf;
   c->env_buf = ebuf;
-  ostu_worldInit(&c->world, c->world_buf, m->nv, ncol, nrow_max, 0);
+  ostu_worldInitFor(&c->world, c->world_buf, m->nv, ncol, nrow_max, 0, 2);
   ostu_geoInit(&c->geo, c->geo_buf, m->nv, ncol, nrow_max, 0);
   ostu_envInit(&c->env, c->env_buf, m->nv, ncol, nrow_max);
   c->ncon_cap = ncon;

@@ -1,8 +1,11 @@
-// test_ost_envelope.c: the envelope solve of a large island's Schur system (core/ost_envelope.h)
-// against GMRES on the matrix-free operator: symmetric (Cholesky) and with sliding couplings
-// (LU), the factor kept for the next solve of the same operator and made again for a new one,
-// and the sets it must leave to PCR (no room, no row cache); then MuJoCo's grid2pin, a tendon
-// network under load, stepped with and without it: the same states, far fewer Krylov iterations.
+// test_ost_envelope.c: the direct solves of a large island's Schur system. The envelope solve
+// (core/ost_envelope.h) against GMRES on the matrix-free operator: symmetric (Cholesky) and with
+// sliding couplings (LU), the factor kept for the next solve of the same operator and made again
+// for a new one, and the sets it must leave to PCR (no room, no row cache); then MuJoCo's
+// grid2pin, a tendon network under load, stepped with and without it: the same states, far fewer
+// Krylov iterations. And the dense solve that a host world makes of an island above
+// OST_DIRECT_MAX rows once a Krylov solve of it stopped short (osti_schurSolveSet), which a
+// batch's world never makes.
 #include "ost_solver.h"
 
 #include <math.h>
@@ -27,11 +30,12 @@ typedef struct {
 // a world of NV dofs in chains of four (tree-factored M) and NCON contacts of three rows, each
 // touching two chains (`shared`: every contact also touches chain 0, so all rows share a dof);
 // every third contact sliding when `sliding` (its row along the slip fixed, c ~ 1e12 k_f)
-static void makeWorld(envWorld* ew, int shared, int sliding) {
+// (`solver` as ostu_worldInitFor's: 1 a batch's world, 2 a host context's)
+static void makeWorldFor(envWorld* ew, int shared, int sliding, int solver) {
   ostWorld* w = &ew->w;
   double h = 0.1;
-  ew->buf = aligned_alloc(64, ostu_worldSize(NV, NV, N));
-  ostu_worldInit(w, ew->buf, NV, NV, N, h);
+  ew->buf = aligned_alloc(64, ostu_worldSizeFor(NV, NV, N, solver));
+  ostu_worldInitFor(w, ew->buf, NV, NV, N, h, solver);
   ew->ebuf = aligned_alloc(64, ostu_envSize(NV, NV, N) + 64);
   ostu_envInit(&ew->e, ew->ebuf, NV, NV, N);
   ew->yrow = (double*)calloc((size_t)N * NV, sizeof(double));
@@ -61,6 +65,11 @@ static void makeWorld(envWorld* ew, int shared, int sliding) {
     ck_assert_int_eq(osti_rowStore(w, 3 * k, 3), 0);
   }
   ost_fixtureContactRows(w, NCON, h, sliding);  // fills the row cache, as an evaluation does
+}
+
+
+static void makeWorld(envWorld* ew, int shared, int sliding) {
+  makeWorldFor(ew, shared, sliding, 1);
 }
 
 
@@ -141,6 +150,55 @@ START_TEST(test_envelopeRefuses) {
 END_TEST
 
 
+// a Krylov solve cut at a budget it cannot meet (4 iterations, the sliding rows' c / h ~ 1e12
+// times the others' diagonal) leaves a relative residual far above OST_DIRECT_FALLBACK: a host
+// world (solver 2) solves that island again directly, to GMRES's answer at 1e-14, and solves the
+// loop's later large islands directly at once (direct_large, until osti_startStep); a batch's
+// world (solver 1, the GPU's layout) has no dense arrays for 150 rows and keeps the Krylov answer
+START_TEST(test_directAfterShortKrylov) {
+  ostSolverOptions opt = {0};
+  opt.pcr_iter = 4;
+  opt.pcr_tol = 1e-12;
+  for (int solver = 1; solver <= 2; solver++) {
+    envWorld ew;
+    makeWorldFor(&ew, 0, 1, solver);
+    ostWorld* w = &ew.w;
+    w->env = NULL;  // the envelope's own fallback is tested above
+    ostRowSet set = osti_wholeSet(w);
+    double b[N], x[N], xg[N];
+    for (int i = 0; i < N; i++) b[i] = sin(1.0 + i) * (w->c[i] > 1 ? 1e12 : 1);
+    osti_gmres(w, xg, b, 2000, 1e-14);
+    for (int i = 0; i < N; i++) x[i] = 0;
+    int it = osti_schurSolveSet(w, &set, x, b, &opt);
+    double err = relDiff(x, xg, N);
+    printf("a short Krylov solve of %d rows, %s world: %.3g relative to GMRES at 1e-14 (%d "
+           "iterations), dense rows %d, direct_large %d\n", N, solver == 2 ? "host" : "batch",
+           err, it, w->ndense, w->direct_large);
+    if (solver == 2) {
+      ck_assert_int_eq(w->ndense, N);
+      ck_assert_int_eq(w->direct_large, 1);
+      ck_assert_int_eq(it, opt.pcr_iter + 1);  // the Krylov budget, then one direct solve
+      // GMRES runs to a relative residual of 1e-14; 1e-9 leaves room for the conditioning
+      ck_assert_double_lt(err, 1e-9);
+      // the next solve of the loop goes direct without Krylov iterations; a new loop does not
+      for (int i = 0; i < N; i++) x[i] = 0;
+      ck_assert_int_eq(osti_schurSolveSet(w, &set, x, b, &opt), 1);
+      ck_assert_double_lt(relDiff(x, xg, N), 1e-9);
+      double u[NV] = {0};
+      osti_startStep(w, u, 0);
+      ck_assert_int_eq(w->direct_large, 0);
+    } else {
+      ck_assert_int_eq(w->ndense, OST_DIRECT_MAX);
+      ck_assert_int_eq(w->direct_large, 0);
+      ck_assert_int_eq(it, opt.pcr_iter);
+      ck_assert_double_gt(err, OST_DIRECT_FALLBACK);  // the truncated answer, as before
+    }
+    freeWorld(&ew);
+  }
+}
+END_TEST
+
+
 // MuJoCo's grid2pin (a 9 x 9 grid of particles joined by 144 tendon equalities, pinned at two
 // corners, hanging), its contacts disabled: one island of 144+ rows whose loaded tendons engage
 // the geometric term, stepped with and without the envelope solves. Both converge every step
@@ -195,6 +253,7 @@ int main(void) {
   TCase* tc = tcase_create("envelope");
   tcase_add_test(tc, test_envelopeMatchesGmres);
   tcase_add_test(tc, test_envelopeRefuses);
+  tcase_add_test(tc, test_directAfterShortKrylov);
   tcase_add_test(tc, test_grid2pinWithAndWithout);
   tcase_set_timeout(tc, 120);
   suite_add_tcase(s, tc);
