@@ -59,14 +59,15 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNu
 // islands of at most this many rows solve their Schur system directly (osti_directSet): the
 // dense Schur matrix from the rows' half-solves and an LU factor, instead of PCR or GMRES
 #define OST_DIRECT_MAX 96
-// a host context's world (ostu_worldInitFor's solver = 2) holds dense arrays for islands of up to
-// this many rows: an island above OST_DIRECT_MAX rows is solved by PCR or GMRES, and directly
+// a host context gives its world separate dense arrays (ostu_denseLargeInit) for islands of up
+// to this many rows: an island above OST_DIRECT_MAX rows is solved by PCR or GMRES, and directly
 // where a Krylov solve stopped at its budget far from the solution (OST_DIRECT_FALLBACK), as
 // are the Newton loop's later large islands (ostWorld.direct_large). Measured on MuJoCo's rope
 // lying on its floor (one island of 135 rows, 46 dofs, 1.5 s at its own h): GMRES cut at
 // pcr_iter left Newton converging linearly (190 iterates per step, 76 ms, 104 of 750 steps
 // unconverged); with direct solves 14 iterates, 4.3 ms, 2 unconverged. The arrays cost
-// min(nrow_max, this)^2 doubles (4.7 MB at the cap), allocated once per context
+// min(nrow_max, this)^2 doubles (4.7 MB at the cap), allocated once per context, apart from the
+// world's own arrays (inside them, the larger layout cost the rope's other solves 15-20 %)
 #define OST_DIRECT_HOST_MAX 768
 // and only where its dense factor costs at most this many Krylov iterations of the island
 // (osti_directAffordable): MuJoCo's softbox (islands of up to 798 rows on 224 dofs) took 63 ms
@@ -85,11 +86,7 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNu
 #else
 #define OST_ROW_CACHE 0
 #endif
-// rows of the dense arrays of a world with `solver` (ostu_worldInitFor): batches' worlds
-// (solver 1, also on the GPU) keep OST_DIRECT_MAX, host contexts (2) OST_DIRECT_HOST_MAX
-#define OST_DENSE_CAP(solver) ((solver) == 2 ? OST_DIRECT_HOST_MAX : OST_DIRECT_MAX)
-#define OST_NDENSE(nrow_max)                                                                   \
-  ((nrow_max) < OST_DENSE_CAP(solver) ? (nrow_max) : OST_DENSE_CAP(solver))
+#define OST_NDENSE(nrow_max) ((nrow_max) < OST_DIRECT_MAX ? (nrow_max) : OST_DIRECT_MAX)
 
 // One world's arrays. The X-macro is the single description of the layout: it drives the size
 // of the allocation and the pointer setup (type, name, rows, cols). Arrays only the Newton
@@ -198,9 +195,12 @@ typedef struct ostWorld_ {        // one world: sizes and pointers into one allo
                                   // (such contacts marked in cpl_row; osti_newton)
   int    cpl_n;                   // rows of cpl_row in use: the most rows a direction of this
                                   // Newton loop had (entries beyond are stale, never read)
-  int    ndense;                  // rows the dense Schur arrays hold (Ad, Yt; 0: none)
+  int    ndense_large;            // rows the large-island dense arrays hold (0: none)
+  ostNum* Ad_large;               // the dense Schur matrix, half-solves by dof and pivots of
+  ostNum* Yt_large;               // islands above OST_DIRECT_MAX rows (host contexts only,
+  int*   Apiv_large;              // ostu_denseLargeInit; NULL: none)
   int    direct_large;            // 1 once a Krylov solve of an island above OST_DIRECT_MAX
-                                  // rows that ndense holds stopped at pcr_iter in this Newton
+                                  // rows that Ad_large holds stopped at pcr_iter in this Newton
                                   // loop: such islands are then solved directly
                                   // (osti_schurSolveSet)
 #define X(type, name, r, c) type* name;
@@ -225,8 +225,7 @@ OST_HD int ostu_rowWidth(const int* dof_parent, int nv) {
 
 
 // bytes needed by one world with rows of at most ncol columns, each array 64-byte aligned
-// (solver = 0: without the solver's arrays, dense rows of nv; 1: a batch's world; 2: a host
-// context's, whose dense arrays take larger islands, OST_DENSE_CAP)
+// (solver = 0: without the solver's arrays, dense rows of nv)
 OST_HD size_t ostu_worldSizeFor(int nv, int ncol, int nrow_max, int solver) {
   size_t sz = 0;
 #define X(type, name, r, c) sz += (((size_t)(r) * (c) * sizeof(type) + 63) / 64) * 64;
@@ -266,7 +265,9 @@ OST_HD void ostu_worldInitFor(ostWorld* w, void* buf, int nv, int ncol, int nrow
   w->op_version = 0;
   w->sat_used = w->sat_off = 0;
   w->cpl_used = w->cpl_n = 0;
-  w->ndense = solver ? OST_NDENSE(nrow_max) : 0;
+  w->ndense_large = 0;
+  w->Ad_large = w->Yt_large = NULL;
+  w->Apiv_large = NULL;
   w->direct_large = 0;
 #define X(type, name, r, c)                                         \
   w->name = (size_t)(r) * (size_t)(c) != 0 ? (type*)p : NULL;       \
@@ -281,6 +282,39 @@ OST_HD void ostu_worldInitFor(ostWorld* w, void* buf, int nv, int ncol, int nrow
 
 OST_HD void ostu_worldInit(ostWorld* w, void* buf, int nv, int ncol, int nrow_max, ostNum h) {
   ostu_worldInitFor(w, buf, nv, ncol, nrow_max, h, 1);
+}
+
+
+// rows of the large-island dense arrays of a world with nrow_max rows (0: none needed)
+OST_HD int ostu_denseLargeRows(int nrow_max) {
+  if (nrow_max <= OST_DIRECT_MAX) {
+    return 0;
+  }
+  return nrow_max < OST_DIRECT_HOST_MAX ? nrow_max : OST_DIRECT_HOST_MAX;
+}
+
+
+// bytes of a world's large-island dense arrays (ostu_denseLargeInit), 64-byte aligned
+OST_HD size_t ostu_denseLargeSize(int nv, int nrow_max) {
+  size_t n = (size_t)ostu_denseLargeRows(nrow_max);
+  return ((n * n * sizeof(ostNum) + 63) / 64 + (n * nv * sizeof(ostNum) + 63) / 64
+          + (n * sizeof(int) + 63) / 64) * 64;
+}
+
+
+// give an initialized world its large-island dense arrays in buf (ostu_denseLargeSize bytes)
+OST_HD void ostu_denseLargeInit(ostWorld* w, void* buf, int nrow_max) {
+  size_t n = (size_t)ostu_denseLargeRows(nrow_max);
+  char* p = (char*)buf;
+  w->ndense_large = (int)n;
+  if (n == 0) {
+    return;
+  }
+  w->Ad_large = (ostNum*)p;
+  p += (n * n * sizeof(ostNum) + 63) / 64 * 64;
+  w->Yt_large = (ostNum*)p;
+  p += (n * w->nv * sizeof(ostNum) + 63) / 64 * 64;
+  w->Apiv_large = (int*)p;
 }
 
 
@@ -1475,6 +1509,24 @@ OST_HD int osti_directAffordable(const ostWorld* w, const ostRowSet* set) {
 }
 
 
+#ifndef OST_NUM_TYPE
+// osti_directSet on the world's own dense arrays for a set of at most OST_DIRECT_MAX rows, on its
+// large-island arrays (ostu_denseLargeInit) for a larger one
+OST_HD int osti_directLargeSet(ostWorld* w, const ostRowSet* set, ostNum* x, const ostNum* b) {
+  if (set->n <= OST_DIRECT_MAX) {
+    return osti_directSet(w, set, x, b);
+  }
+  ostNum* Ad = w->Ad;
+  ostNum* Yt = w->Yt;
+  int* piv = w->Apiv;
+  w->Ad = w->Ad_large, w->Yt = w->Yt_large, w->Apiv = w->Apiv_large;
+  int it = osti_directSet(w, set, x, b);
+  w->Ad = Ad, w->Yt = Yt, w->Apiv = piv;
+  return it;
+}
+#endif
+
+
 #define OSTRICH_CORE_OST_SOLVER_H_INSIDE
 #include "ost_envelope.h"
 #undef OSTRICH_CORE_OST_SOLVER_H_INSIDE
@@ -1490,27 +1542,20 @@ OST_HD int osti_schurSolveSet(ostWorld* w, const ostRowSet* set, ostNum* x, cons
                               const ostSolverOptions* opt) {
   int small = set->n <= OST_DIRECT_MAX;
   int dense = 0;  // a direct solve may be made (set below in host and GPU double builds)
-#ifndef OST_NUM_TYPE
-  // directly: up to OST_DIRECT_MAX rows always; up to the world's dense rows, where the factor
-  // is affordable, once a Krylov solve of a larger island stopped at its budget in this Newton
-  // loop (direct_large, below)
-  dense = w->Ad && w->dof_parent && set->n <= w->ndense
-          && (small || osti_directAffordable(w, set));
-  if (dense && small) {
-    int it = osti_directSet(w, set, x, b);
-    if (it) {
-      return it;
-    }
-  }
-#endif
 #if OST_ROW_CACHE
   if (!small && osti_envelopeSet(w, set, x, b, 0)) {  // a kept factor, or the geometric term's
     return 1;
   }
 #endif
 #ifndef OST_NUM_TYPE
-  if (dense && !small && w->direct_large) {
-    int it = osti_directSet(w, set, x, b);
+  // directly: up to OST_DIRECT_MAX rows always; up to the world's dense rows, where the factor
+  // is affordable, once a Krylov solve of a larger island stopped at its budget in this Newton
+  // loop (direct_large, below)
+  dense = w->dof_parent
+          && (small ? w->Ad != NULL
+                    : w->Ad_large && set->n <= w->ndense_large && osti_directAffordable(w, set));
+  if (dense && (small || w->direct_large)) {
+    int it = osti_directLargeSet(w, set, x, b);
     if (it) {
       return it;
     }
@@ -1538,7 +1583,7 @@ OST_HD int osti_schurSolveSet(ostWorld* w, const ostRowSet* set, ostNum* x, cons
       w->direct_large = 1;
       ostNum* keep = w->pcr + (size_t)5 * w->nrow_max;  // the Krylov answer, if the factor fails
       for (int l = 0; l < set->n; l++) keep[l] = x[l];
-      int itd = osti_directSet(w, set, x, b);
+      int itd = osti_directLargeSet(w, set, x, b);
       if (itd) {
         return it + itd;
       }

@@ -37,6 +37,7 @@ static void freeContext(ostContext* c) {
   free(c->world_buf);
   free(c->geo_buf);
   free(c->env_buf);
+  free(c->dense_buf);
   free(c->native_block);
   free(c->corepairs_block);
   ost_collisionFree(&c->col);
@@ -129,7 +130,7 @@ int ost_growCapacity(ostContext* c, int ncon, int njmax) {
   const mjModel* m = c->m;
   int nrow_max = ost_rowCapacityFor(m, ncon);
   int ncol = ost_rowWidth(m);
-  size_t sz = ostu_worldSizeFor(m->nv, ncol, nrow_max, 2);  // a host world (OST_DENSE_CAP)
+  size_t sz = ostu_worldSize(m->nv, ncol, nrow_max);
   void* buf = aligned_alloc(64, (sz + 63) / 64 * 64);
   if (!buf) {
     return OST_ERR_MEMORY;
@@ -137,21 +138,27 @@ int ost_growCapacity(ostContext* c, int ncon, int njmax) {
   memset(buf, 0, sz);
   size_t gsz = ostu_geoSize(m->nv, ncol, nrow_max);
   size_t esz = ostu_envSize(m->nv, ncol, nrow_max);
+  size_t dsz = ostu_denseLargeSize(m->nv, nrow_max);
   void* gbuf = aligned_alloc(64, (gsz + 63) / 64 * 64);
   void* ebuf = aligned_alloc(64, (esz + 63) / 64 * 64 + 64);
-  if (!gbuf || !ebuf) {
+  void* dbuf = aligned_alloc(64, dsz + 64);
+  if (!gbuf || !ebuf || !dbuf) {
     free(buf);
     free(gbuf);
     free(ebuf);
+    free(dbuf);
     return OST_ERR_MEMORY;
   }
   free(c->world_buf);
   free(c->geo_buf);
   free(c->env_buf);
+  free(c->dense_buf);
   c->world_buf = buf;
   c->geo_buf = gbuf;
   c->env_buf = ebuf;
-  ostu_worldInitFor(&c->world, c->world_buf, m->nv, ncol, nrow_max, 0, 2);
+  c->dense_buf = dbuf;
+  ostu_worldInit(&c->world, c->world_buf, m->nv, ncol, nrow_max, 0);
+  ostu_denseLargeInit(&c->world, c->dense_buf, nrow_max);
   ostu_geoInit(&c->geo, c->geo_buf, m->nv, ncol, nrow_max, 0);
   ostu_envInit(&c->env, c->env_buf, m->nv, ncol, nrow_max);
   c->ncon_cap = ncon;

@@ -116,6 +116,8 @@ typedef struct ostContext_ {
   void*          geo_buf;         // its geometric Newton arrays' allocation
   ostGeoWork     geo;             // those arrays (core/ost_geometric.h)
   void*          env_buf;         // its envelope solves' arrays' allocation
+  void*          dense_buf;       // its large-island dense arrays' allocation
+                                  // (ostu_denseLargeInit; the world points into it)
   ostEnvWork     env;             // those arrays (core/ost_envelope.h)
   ostModel       native;          // native provider: packed model (geometry option 1)
   void*          native_block;    // its single allocation

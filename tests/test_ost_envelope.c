@@ -21,6 +21,7 @@ typedef struct {
   ostWorld   w;
   ostEnvWork e;
   void*      buf;
+  void*      dbuf;
   void*      ebuf;
   double*    yrow;
   int        parent[NV];
@@ -30,12 +31,14 @@ typedef struct {
 // a world of NV dofs in chains of four (tree-factored M) and NCON contacts of three rows, each
 // touching two chains (`shared`: every contact also touches chain 0, so all rows share a dof);
 // every third contact sliding when `sliding` (its row along the slip fixed, c ~ 1e12 k_f)
-// (`solver` as ostu_worldInitFor's: 1 a batch's world, 2 a host context's)
-static void makeWorldFor(envWorld* ew, int shared, int sliding, int solver) {
+// (`host`: with a host context's large-island dense arrays, ostu_denseLargeInit)
+static void makeWorldFor(envWorld* ew, int shared, int sliding, int host) {
   ostWorld* w = &ew->w;
   double h = 0.1;
-  ew->buf = aligned_alloc(64, ostu_worldSizeFor(NV, NV, N, solver));
-  ostu_worldInitFor(w, ew->buf, NV, NV, N, h, solver);
+  ew->buf = aligned_alloc(64, ostu_worldSize(NV, NV, N));
+  ostu_worldInit(w, ew->buf, NV, NV, N, h);
+  ew->dbuf = host ? aligned_alloc(64, ostu_denseLargeSize(NV, N) + 64) : NULL;
+  if (host) ostu_denseLargeInit(w, ew->dbuf, N);
   ew->ebuf = aligned_alloc(64, ostu_envSize(NV, NV, N) + 64);
   ostu_envInit(&ew->e, ew->ebuf, NV, NV, N);
   ew->yrow = (double*)calloc((size_t)N * NV, sizeof(double));
@@ -69,12 +72,13 @@ static void makeWorldFor(envWorld* ew, int shared, int sliding, int solver) {
 
 
 static void makeWorld(envWorld* ew, int shared, int sliding) {
-  makeWorldFor(ew, shared, sliding, 1);
+  makeWorldFor(ew, shared, sliding, 0);
 }
 
 
 static void freeWorld(envWorld* ew) {
   free(ew->buf);
+  free(ew->dbuf);
   free(ew->ebuf);
   free(ew->yrow);
 }
@@ -152,16 +156,16 @@ END_TEST
 
 // a Krylov solve cut at a budget it cannot meet (4 iterations, the sliding rows' c / h ~ 1e12
 // times the others' diagonal) leaves a relative residual far above OST_DIRECT_FALLBACK: a host
-// world (solver 2) solves that island again directly, to GMRES's answer at 1e-14, and solves the
-// loop's later large islands directly at once (direct_large, until osti_startStep); a batch's
-// world (solver 1, the GPU's layout) has no dense arrays for 150 rows and keeps the Krylov answer
+// world (with large-island dense arrays) solves that island again directly, to GMRES's answer at
+// 1e-14, and solves the loop's later large islands directly at once (direct_large, until
+// osti_startStep); a batch's world (none, as on the GPU) keeps the Krylov answer
 START_TEST(test_directAfterShortKrylov) {
   ostSolverOptions opt = {0};
   opt.pcr_iter = 4;
   opt.pcr_tol = 1e-12;
-  for (int solver = 1; solver <= 2; solver++) {
+  for (int host = 0; host <= 1; host++) {
     envWorld ew;
-    makeWorldFor(&ew, 0, 1, solver);
+    makeWorldFor(&ew, 0, 1, host);
     ostWorld* w = &ew.w;
     w->env = NULL;  // the envelope's own fallback is tested above
     ostRowSet set = osti_wholeSet(w);
@@ -172,10 +176,10 @@ START_TEST(test_directAfterShortKrylov) {
     int it = osti_schurSolveSet(w, &set, x, b, &opt);
     double err = relDiff(x, xg, N);
     printf("a short Krylov solve of %d rows, %s world: %.3g relative to GMRES at 1e-14 (%d "
-           "iterations), dense rows %d, direct_large %d\n", N, solver == 2 ? "host" : "batch",
-           err, it, w->ndense, w->direct_large);
-    if (solver == 2) {
-      ck_assert_int_eq(w->ndense, N);
+           "iterations), large-island dense rows %d, direct_large %d\n", N,
+           host ? "host" : "batch", err, it, w->ndense_large, w->direct_large);
+    if (host) {
+      ck_assert_int_eq(w->ndense_large, N);
       ck_assert_int_eq(w->direct_large, 1);
       ck_assert_int_eq(it, opt.pcr_iter + 1);  // the Krylov budget, then one direct solve
       // GMRES runs to a relative residual of 1e-14; 1e-9 leaves room for the conditioning
@@ -188,7 +192,7 @@ START_TEST(test_directAfterShortKrylov) {
       osti_startStep(w, u, 0);
       ck_assert_int_eq(w->direct_large, 0);
     } else {
-      ck_assert_int_eq(w->ndense, OST_DIRECT_MAX);
+      ck_assert_int_eq(w->ndense_large, 0);
       ck_assert_int_eq(w->direct_large, 0);
       ck_assert_int_eq(it, opt.pcr_iter);
       ck_assert_double_gt(err, OST_DIRECT_FALLBACK);  // the truncated answer, as before
