@@ -185,8 +185,9 @@ typedef struct ostWorld_ {        // one world: sizes and pointers into one allo
                                   // reads it); NULL: none (GPU, batches, the adjoint)
   struct ostEnvWork_* env;        // host envelope solves of large islands (ost_envelope.h);
                                   // NULL: none (they need yrow)
-  int    op_version;              // counts osti_evaluate calls: the Schur operator (rows, J,
-                                  // c) a kept envelope factor belongs to
+  int    op_version;              // counts changes of the Newton operator (rows, J, c, the
+                                  // sliding couplings) that a kept envelope factor belongs to:
+                                  // osti_evaluate, osti_slideRows, osti_couplingFallback
   int    sat_used;                // 1: the last direction used the saturated-sticking model
   int    sat_off;                 // 1: the next direction keeps the sticking model (the last
                                   // saturated direction found no descent; osti_newton)
@@ -705,6 +706,7 @@ OST_HD ostNum osti_slideRows(ostWorld* w, int i, int nf, ostNum kf, ostNum cs, o
                              const ostNum* z, ostNum zn) {
   int a = i + 1;
   ostNum H[OST_MAXFRIC * OST_MAXFRIC];
+  w->op_version++;  // rows, c and the sliding coupling change: a kept envelope factor is stale
   w->W[i] = 1;
   for (int k = 0; k < nf; k++) {
     w->W[a + k] = z[k] / zn;
@@ -1527,6 +1529,23 @@ OST_HD int osti_directLargeSet(ostWorld* w, const ostRowSet* set, ostNum* x, con
 #endif
 
 
+// |A x - b|^2 and |b|^2 of a set's Newton system (osti_newtonApplySet) in the Jacobi
+// preconditioner's norm, that of PCR, into rr and bb; r: scratch of set->n
+OST_HD void osti_residualSet(ostWorld* w, const ostRowSet* set, const ostNum* x, const ostNum* b,
+                             ostNum* r, ostNum* rr, ostNum* bb) {
+  osti_newtonApplySet(w, set, r, x);
+  ostNum sr = 0, sb = 0;
+  for (int l = 0; l < set->n; l++) {
+    int i = OST_SET_ROW(set, l);
+    ostNum p = 1 / (w->diag[i] + w->c[i] / w->h);
+    sr += (r[l] - b[l]) * (r[l] - b[l]) * p;
+    sb += b[l] * b[l] * p;
+  }
+  *rr = sr;
+  *bb = sb;
+}
+
+
 #define OSTRICH_CORE_OST_SOLVER_H_INSIDE
 #include "ost_envelope.h"
 #undef OSTRICH_CORE_OST_SOLVER_H_INSIDE
@@ -1567,15 +1586,8 @@ OST_HD int osti_schurSolveSet(ostWorld* w, const ostRowSet* set, ostNum* x, cons
   if (!small && it >= opt->pcr_iter && (dense || w->env)) {
     // the Krylov solve ran out of budget: its relative residual |A x - b| / |b| in the Jacobi
     // preconditioner's norm (that of PCR) decides whether it failed
-    ostNum* r = w->pcr + (size_t)w->nrow_max;
-    osti_newtonApplySet(w, set, r, x);
-    ostNum rr = 0, bb = 0;
-    for (int l = 0; l < set->n; l++) {
-      int i = OST_SET_ROW(set, l);
-      ostNum p = 1 / (w->diag[i] + w->c[i] / w->h);
-      rr += (r[l] - b[l]) * (r[l] - b[l]) * p;
-      bb += b[l] * b[l] * p;
-    }
+    ostNum rr, bb;
+    osti_residualSet(w, set, x, b, w->pcr + (size_t)w->nrow_max, &rr, &bb);
 #ifndef OST_NUM_TYPE
     if (dense && rr > OST_DIRECT_FALLBACK * OST_DIRECT_FALLBACK * bb) {
       // inexact enough to leave Newton converging linearly: this island and the loop's later

@@ -214,7 +214,11 @@ OST_HD int osti_couplingFallback(ostWorld* w, int descent) {
   }
   int back = !descent && w->cpl_used && !lagged;
   for (int i = 0; i < w->cpl_n; i++) {
-    w->cpl_row[2 * i + 1] = back && w->cpl_row[2 * i];
+    int lag = back && w->cpl_row[2 * i];
+    if (lag != w->cpl_row[2 * i + 1]) {
+      w->op_version++;  // a coupling lagged or no longer: a kept envelope factor is stale
+    }
+    w->cpl_row[2 * i + 1] = lag;
   }
   return back;
 }
