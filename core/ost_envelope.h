@@ -19,7 +19,7 @@
 // equal to each other.
 // Invariant: writes only the work's arrays, x and the world's scratch w->tmp; a solve that
 // cannot be made (no room, a factor that fails, one dearer than OST_ENV_KRYLOV Krylov
-// iterations, or one whose first answer misses its system: OST_ENV_EXACT) returns 0, leaves x
+// iterations, or one whose first answer misses its system: OST_DIRECT_EXACT) returns 0, leaves x
 // as it was and the solve to PCR or GMRES.
 #ifndef OSTRICH_CORE_OST_ENVELOPE_H_
 #define OSTRICH_CORE_OST_ENVELOPE_H_
@@ -37,9 +37,6 @@
 // hammock keeps most of the gain (339 ms per step against 947 with the geometric term's solves
 // alone)
 #define OST_ENV_FALLBACK 100
-// a new factor is kept only if its first answer's relative residual (Jacobi norm) is at most
-// this: the stable factors measured 1e-15 to 1e-10, the unstable ones 1e2 and above
-#define OST_ENV_EXACT 1e-6
 // most doubles an envelope factor may hold (16 MB); a larger one leaves the solve to PCR/GMRES
 #define OST_ENV_CAP (1 << 21)
 // the factor (sum of (envelope width)^2 / 2 flops) may cost this many Krylov iterations of the set
@@ -452,11 +449,11 @@ OST_HD int osti_envelopeSet(ostWorld* w, const ostRowSet* set, ostNum* x, const 
     // every large solve made by this path: 22 % of the LU factors answered with relative
     // residuals of 1e2 to 1e17, where the dense LU with partial pivoting of the same systems
     // reached 1e-15 to 1e-10. So a new factor's first answer must solve its system to
-    // OST_ENV_EXACT, or the factor is dropped and the solve left to PCR or GMRES
+    // OST_DIRECT_EXACT, or the factor is dropped and the solve left to PCR or GMRES
     osti_envSolve(e, n, lu, e->xs, b);
     ostNum rr, bb;
     osti_residualSet(w, set, e->xs, b, e->res, &rr, &bb);
-    if (!(rr <= OST_ENV_EXACT * OST_ENV_EXACT * bb)) {
+    if (!(rr <= OST_DIRECT_EXACT * OST_DIRECT_EXACT * bb)) {
       e->rejects++;
       return 0;
     }

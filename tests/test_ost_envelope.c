@@ -215,16 +215,18 @@ END_TEST
 // contacts that outnumber the dofs they hold (120 rows on 24 dofs), nearly rigid (normals' c of
 // 1e-9 of their diagonal), every third sliding: A is nearly singular and not symmetric, and the
 // envelope's LU, which does not pivot, answers some of these systems with residuals far above
-// OST_ENV_EXACT although every pivot passes. An answer the envelope returns must solve its
-// system to OST_ENV_EXACT; a factor that cannot is dropped (a reject), x is left as it was and
-// the same operator is not factored again
+// OST_DIRECT_EXACT although every pivot passes. An answer the envelope returns must solve its
+// system to OST_DIRECT_EXACT; a factor that cannot is dropped (a reject), x is left as it was and
+// the same operator is not factored again. The dense LU (with partial pivoting) of the same
+// systems obeys the same bound: an answer it returns solves its system to OST_DIRECT_EXACT, else
+// osti_directLargeSet returns 0 and the island goes to PCR or GMRES
 START_TEST(test_unstableFactorRejected) {
   enum { NV2 = 24, NCON2 = 40, N2 = 3 * NCON2 };
-  int accepted = 0, rejected = 0;
-  double worst = 0;
+  int accepted = 0, rejected = 0, dense_accepted = 0, dense_rejected = 0;
+  double worst = 0, worst_dense = 0;
   for (unsigned seed = 1; seed <= 40; seed++) {
     envWorld ew;
-    makeWorldSized(&ew, NV2, NCON2, 0, 1, 0, seed);
+    makeWorldSized(&ew, NV2, NCON2, 0, 1, 1, seed);
     ostWorld* w = &ew.w;
     for (int i = 0; i < N2; i += 3) w->c[i] = 1e-9 * w->h * w->diag[i];  // the normals
     ostRowSet set = osti_wholeSet(w);
@@ -242,13 +244,24 @@ START_TEST(test_unstableFactorRejected) {
       ck_assert_int_eq(ew.e.factors, 1);
       rejected++;
     }
+    if (osti_directLargeSet(w, &set, x, b)) {
+      osti_residualSet(w, &set, x, b, r, &rr, &bb);
+      worst_dense = fmax(worst_dense, sqrt(rr / bb));
+      dense_accepted++;
+    } else {
+      dense_rejected++;
+    }
     freeWorld(&ew);
   }
   printf("nearly singular sliding systems: envelope answers %d (worst relative residual %.3g), "
-         "rejected %d\n", accepted, worst, rejected);
+         "rejected %d; dense answers %d (worst %.3g), rejected %d\n", accepted, worst, rejected,
+         dense_accepted, worst_dense, dense_rejected);
   ck_assert_int_gt(rejected, 0);  // these systems do defeat the pivot-free factor
   ck_assert_int_gt(accepted, 0);
-  ck_assert_double_le(worst, OST_ENV_EXACT);
+  ck_assert_double_le(worst, OST_DIRECT_EXACT);
+  ck_assert_int_gt(dense_rejected, 0);  // and some defeat the pivoted one
+  ck_assert_int_gt(dense_accepted, 0);
+  ck_assert_double_le(worst_dense, OST_DIRECT_EXACT);
 }
 END_TEST
 
