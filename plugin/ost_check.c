@@ -146,9 +146,6 @@ static void actuatorRefusals(const mjModel* m, int i, ostRefusalList* l) {
     ost_refuse(l, "actuator", name, "a non-fixed gain (gaintype %s)",
                gt >= 0 && gt <= mjGAIN_USER ? gain[gt] : "unknown");
   }
-  if (m->actuator_trntype[i] == mjTRN_BODY) {
-    ost_refuse(l, "actuator", name, "a body (adhesion) transmission");
-  }
   if (bt == mjBIAS_AFFINE && (b[1] > 0 || b[2] > 0)) {
     ost_refuse(l, "actuator", name, "an affine bias with positive position or velocity feedback");
   } else if (bt != mjBIAS_NONE && bt != mjBIAS_AFFINE && bt != mjBIAS_MUSCLE) {

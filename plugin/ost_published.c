@@ -59,8 +59,14 @@ void ost_publishedSave(ostContext* c, const mjModel* m, const mjData* d) {
   s += (len);
   OST_PUBLISHED_ARRAYS(m, d)
 #undef X
-  // stages that ran a user callback are not reused, even once the callback is gone
-  c->published_valid = !(mjcb_passive || mjcb_sensor || mjcb_contactfilter);
+  // stages that ran a user callback are not reused, even once the callback is gone; nor where
+  // an actuator has a body (adhesion) transmission: MuJoCo takes its moment from the contacts
+  // within the model's margins, and the published contacts are the look-ahead's (wider)
+  int adhesion = 0;
+  for (int i = 0; i < m->nu; i++) {
+    adhesion |= m->actuator_trntype[i] == mjTRN_BODY;
+  }
+  c->published_valid = !(mjcb_passive || mjcb_sensor || mjcb_contactfilter || adhesion);
 }
 
 

@@ -219,7 +219,7 @@ expect_py "terrain_mesh: drives about 4 m along its line over the mesh" \
 
 #---------------------------------- refusals: every feature, the same in sim and check ------------
 # unsupported_three_features.xml has two actuators with a user gain, a contact pair with
-# anisotropic friction and an adhesion actuator: one refusal names all three (the actuators in
+# anisotropic friction and an actuator with a user bias: one refusal names all three (the actuators in
 # one entry); `check` refuses it with the same stderr line and exit code as `sim`, and says so in
 # its JSON line (accepted false).
 
@@ -230,7 +230,7 @@ expect_rc 2 "sim refuses a model with three unsupported features"
 cp "$tmp/err" "$tmp/sim_refusal"
 if grep -q "(3 features)" "$tmp/err" && grep -q "contact pair 'rub': anisotropic friction" \
      "$tmp/err" && grep -q "2 actuators ('shoulder_user', 'elbow_user'): a non-fixed gain" \
-     "$tmp/err" && grep -q "actuator 'grip': a body (adhesion) transmission" "$tmp/err"; then
+     "$tmp/err" && grep -q "actuator 'grip': a user bias" "$tmp/err"; then
   pass "sim's refusal names all three features and their elements"
 else
   fail "sim's refusal names all three features and their elements"

@@ -50,7 +50,7 @@ START_TEST(test_everyUnsupportedFeature) {
   ck_assert_int_eq(ost_checkModel(m, err, sizeof(err)), OST_ERR_MODEL);
   const char* want[] = {"(3 features)", "contact pair 'rub': anisotropic friction",
                         "2 actuators ('shoulder_user', 'elbow_user'): a non-fixed gain",
-                        "actuator 'grip': a body (adhesion) transmission"};
+                        "actuator 'grip': a user bias"};
   for (int i = 0; i < 4; i++) {
     ck_assert_msg(strstr(err, want[i]), "'%s' not in: %s", want[i], err);
   }
@@ -66,7 +66,7 @@ START_TEST(test_everyUnsupportedFeature) {
   ck_assert_str_eq(r[1].name[1], "elbow_user");
   ck_assert_str_eq(r[2].what, "actuator");
   ck_assert_str_eq(r[2].name[0], "grip");
-  ck_assert_ptr_nonnull(strstr(r[2].feature, "adhesion"));
+  ck_assert_ptr_nonnull(strstr(r[2].feature, "user bias"));
   ck_assert_int_eq(ost_checkModelList(m, r, 1), 3);  // counted beyond nout
   ck_assert_int_eq(ost_checkModelList(NULL, r, 1), -1);
 
@@ -82,11 +82,10 @@ START_TEST(test_everyUnsupportedFeature) {
   ck_assert_str_eq(ost_lastError(d), err);
   ost_deleteData(d);
 
-  // the native provider adds its own refusals of the tendon (native has no tendons) and of the
-  // body transmission
+  // the native provider adds its own refusal of the tendon (native has no tendons)
   o.geometry = OST_GEOMETRY_NATIVE;
   ck_assert_int_eq(ost_checkStep(m, &o, step_err, sizeof(step_err)), OST_ERR_MODEL);
-  ck_assert_msg(strstr(step_err, "(5 features)") && strstr(step_err, "tendons, which the native"),
+  ck_assert_msg(strstr(step_err, "(4 features)") && strstr(step_err, "tendons, which the native"),
                 "%s", step_err);
 
   // a short buffer: whole entries, then "... and K more", never a cut entry
