@@ -205,6 +205,9 @@ typedef struct ostWorld_ {        // one world: sizes and pointers into one allo
   ostNum* Ad_large;               // the dense Schur matrix, half-solves by dof and pivots of
   ostNum* Yt_large;               // islands above OST_DIRECT_MAX rows (host contexts only,
   int*   Apiv_large;              // ostu_denseLargeInit; NULL: none)
+  int    dense_bad;               // op_version of a large set whose dense answer missed
+  const int* dense_bad_row;       // OST_DIRECT_EXACT (-1: none), and the set: not factored
+  int    dense_bad_n;             // again for that operator (osti_directLargeSet)
   int    direct_large;            // 1 once a Krylov solve of an island above OST_DIRECT_MAX
                                   // rows that Ad_large holds stopped at pcr_iter in this Newton
                                   // loop: such islands are then solved directly
@@ -269,6 +272,7 @@ OST_HD void ostu_worldInitFor(ostWorld* w, void* buf, int nv, int ncol, int nrow
   w->yrow = NULL;
   w->env = NULL;
   w->op_version = 0;
+  w->dense_bad = -1;
   w->sat_used = w->sat_off = 0;
   w->cpl_used = w->cpl_n = 0;
   w->ndense_large = 0;
@@ -1540,6 +1544,9 @@ OST_HD int osti_directLargeSet(ostWorld* w, const ostRowSet* set, ostNum* x, con
   if (set->n <= OST_DIRECT_MAX) {
     return osti_directSet(w, set, x, b);
   }
+  if (w->dense_bad == w->op_version && w->dense_bad_row == set->row && w->dense_bad_n == set->n) {
+    return 0;  // this operator's dense answer missed already
+  }
   ostNum* Ad = w->Ad;
   ostNum* Yt = w->Yt;
   int* piv = w->Apiv;
@@ -1553,6 +1560,9 @@ OST_HD int osti_directLargeSet(ostWorld* w, const ostRowSet* set, ostNum* x, con
     ostNum rr, bb;
     osti_residualSet(w, set, x, b, w->pcr + (size_t)w->nrow_max, &rr, &bb);
     if (!(rr <= OST_DIRECT_EXACT * OST_DIRECT_EXACT * bb)) {
+      w->dense_bad = w->op_version;
+      w->dense_bad_row = set->row;
+      w->dense_bad_n = set->n;
       return 0;
     }
   }
