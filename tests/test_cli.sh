@@ -279,6 +279,27 @@ expect_usage_error "sim --key -1" sim "$KEYS2" --key -1
 expect_usage_error "gradcheck --key 5" gradcheck "$KEYS2" --key 5
 run sim --help
 expect_mentions "sim --help documents --key" "--key K" "qpos0"
+
+# --perturb SEED moves the start's qvel by at most 5e-7 (the CSV's first row shows it), the same
+# for the same seed in both engines, and reports the seed; 0 leaves the start as it was
+for engine in ostrich mujoco; do
+  run sim "$KEYS2" --engine "$engine" --steps 10 --key 1 --perturb 3 --csv "$tmp/p3.csv"
+  expect_rc 0 "sim --perturb 3 ($engine)"
+  cp "$tmp/p3.csv" "$tmp/p3_$engine.csv"
+  expect_py "sim --perturb 3 ($engine): qvel of the start within 5e-7 of keyframe 1's, not equal" \
+    'j["perturb"] == 3 and 0 < abs(float(rows[1][2]) - 0.5) <= 5e-7' "$tmp/p3.csv"
+done
+if [ "$(sed -n 2p "$tmp/p3_ostrich.csv")" = "$(sed -n 2p "$tmp/p3_mujoco.csv")" ]; then
+  pass "sim --perturb 3: both engines start from the same perturbed state"
+else
+  fail "sim --perturb 3: both engines start from the same perturbed state"
+fi
+run sim "$KEYS2" --steps 10 --key 1 --perturb 0 --csv "$tmp/p0.csv"
+expect_py "sim --perturb 0: the keyframe's start, perturb 0" \
+  'j["perturb"] == 0 and rows[1] == ["0", "1", "0.5"]' "$tmp/p0.csv"
+expect_usage_error "sim --perturb -1" sim "$KEYS2" --perturb -1
+run sim --help
+expect_mentions "sim --help documents --perturb" "--perturb SEED" "5e-7"
 run gradcheck --help
 expect_mentions "gradcheck --help documents --key" "--key K" "qpos0"
 

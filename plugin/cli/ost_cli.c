@@ -41,8 +41,11 @@ typedef struct simArgs_ {         // arguments of `ostrich sim`
   const char* csv;                // trajectory CSV path; NULL: none
   const char* geometry;           // "mujoco" or "native"; NULL: the model's option
   long        key;                // start keyframe; CLI_KEY_NONE: qpos0
+  long        perturb;            // seed of the start's qvel perturbation; 0: none
   int         help;               // --help was given
 } simArgs;
+
+#define SIM_PERTURB 5e-7          // --perturb: each qvel moves by at most this (m/s or rad/s)
 
 #define SIM_DEFAULT_DURATION 5.0  // simulated seconds when neither --duration nor --steps
 
@@ -66,6 +69,10 @@ static const cliOption kSimOptions[] = {
    "Ostrich's geometry provider (ostrich/geometry): MuJoCo's kinematics\n"
    "and collision, or Ostrich's portable native geometry"},
   CLI_KEY_OPTION(simArgs),
+  {"--perturb", CLI_ARG_COUNT, offsetof(simArgs, perturb), "SEED",
+   "add a uniform perturbation of at most 5e-7 to every qvel of the start (seed\n"
+   "SEED >= 1; 0: none, the default): runs of a model whose iterate counts are\n"
+   "chaotic (composites lying in contact) are compared over several starts"},
   {"--csv", CLI_ARG_STRING, offsetof(simArgs, csv), "FILE.csv",
    "write the trajectory as CSV: header time,qpos_0..,qvel_0..(,act_0.. if na > 0); one row\n"
    "for the initial state, then one after each step (%.10g); written to\n"
@@ -86,9 +93,9 @@ static void sim_usage(FILE* f) {
     "there), max_penetration (m, deepest contact over all steps), mean_residual (ostrich: merit\n"
     "residual; mujoco: final solver gradient norm), mean_newton_iter (ostrich: Newton\n"
     "iterates; mujoco: solver iterations), cold_retries (ostrich: Newton solves redone from\n"
-    "a cold start after failing from the warm one), key (the start keyframe, null: qpos0) and\n"
-    "final_qpos. Both engines start from the same state: qpos0 (mj_resetData), or keyframe K\n"
-    "with --key K.\n"
+    "a cold start after failing from the warm one), key (the start keyframe, null: qpos0),\n"
+    "perturb (--perturb's seed, 0: none) and final_qpos. Both engines start from the same\n"
+    "state: qpos0 (mj_resetData), or keyframe K with --key K.\n"
     "\n"
     "options:\n");
   cli_printOptions(f, kSimOptions, kSimNumOptions);
@@ -167,6 +174,15 @@ static int sim_setup(const simArgs* a, simRun* r) {
     r->h = a->h > 0 ? a->h : r->m->opt.timestep;
   }
   cli_resetStart(r->m, r->d, a->key);
+  if (a->perturb > 0) {
+    // uniform in [-SIM_PERTURB, SIM_PERTURB] from a 64-bit LCG (Knuth's MMIX constants), so a
+    // seed gives the same start on every platform
+    unsigned long long x = (unsigned long long)a->perturb;
+    for (int j = 0; j < r->m->nv; j++) {
+      x = x * 6364136223846793005ULL + 1442695040888963407ULL;
+      r->d->qvel[j] += SIM_PERTURB * (2 * ((double)(x >> 11) / 9007199254740992.0) - 1);
+    }
+  }
 
   // keep the model consistent with the step size (stock stages read opt.timestep)
   r->m->opt.timestep = r->h;
@@ -370,6 +386,7 @@ static void sim_report(const simArgs* a, const simRun* r) {
   } else {
     printf(",\"key\":%ld", a->key);
   }
+  printf(",\"perturb\":%ld", a->perturb);
   printf(",\"final_qpos\":[");
   for (int i = 0; i < r->m->nq; i++) {
     if (i) {
