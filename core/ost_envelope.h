@@ -70,14 +70,11 @@ typedef struct ostEnvWork_ {      // envelope solves of one host world (ost_enve
   int    ncol;                    // columns of a stored row
   int    nv;                      // dofs
   size_t cap;                     // doubles L can hold
-  int    version;                 // ostWorld.op_version of the kept factor (-1: none)
-  const int* set_row;             // its set (rows pointer and count)
-  int    set_n;
+  ostOpKey kept;                  // the operator of the kept factor (version -1: none)
   int    lu;                      // 1: the kept factor is an LU (sliding couplings), 0: Cholesky
   int    active;                  // 1 while the geometric term's direction solves (below)
-  int    bad_version;             // ostWorld.op_version of a factor that failed or was
-  const int* bad_row;             // rejected (-1: none), and its set: not tried again for
-  int    bad_n;                   // that operator
+  ostOpKey bad;                   // the operator whose factor failed or was rejected: not tried
+                                  // again (version -1: none)
   int    solves;                  // solves by this path (counter, never reset here)
   int    factors;                 // factors they took (counter)
   int    rejects;                 // factors rejected by their first answer (counter)
@@ -117,14 +114,10 @@ OST_HD void ostu_envInit(ostEnvWork* e, void* buf, int nv, int ncol, int nrow_ma
   e->ncol = ncol;
   e->nv = nv;
   e->cap = cap;
-  e->version = -1;
-  e->set_row = NULL;
-  e->set_n = 0;
+  e->kept = (ostOpKey){-1, NULL, 0};
   e->lu = 0;
   e->active = 0;
-  e->bad_version = -1;
-  e->bad_row = NULL;
-  e->bad_n = 0;
+  e->bad = (ostOpKey){-1, NULL, 0};
   e->solves = 0;
   e->factors = 0;
   e->rejects = 0;
@@ -403,11 +396,11 @@ OST_HD int osti_envelopeSet(ostWorld* w, const ostRowSet* set, ostNum* x, const 
     return 0;
   }
   int lu = osti_hasSlidingCouplingSet(w, set);
-  int kept = e->version == w->op_version && e->set_row == set->row && e->set_n == n && e->lu == lu;
+  int kept = osti_opKeyIs(&e->kept, w, set) && e->lu == lu;
   if (!kept && !factor && !e->active) {
     return 0;
   }
-  if (!kept && e->bad_version == w->op_version && e->bad_row == set->row && e->bad_n == n) {
+  if (!kept && osti_opKeyIs(&e->bad, w, set)) {
     return 0;  // this operator's factor failed or was rejected already
   }
   if (!kept) {
@@ -415,11 +408,9 @@ OST_HD int osti_envelopeSet(ostWorld* w, const ostRowSet* set, ostNum* x, const 
     // sum of the rows' pattern sizes (flops); the factor may cost OST_ENV_KRYLOV of them
     double krylov = 0;
     for (int l = 0; l < n; l++) krylov += 4.0 * w->Jnnz[OST_SET_ROW(set, l)];
-    e->version = -1;
+    e->kept.version = -1;
     size_t size = osti_envOrder(w, e, set, OST_ENV_KRYLOV * krylov / (lu ? 2 : 1));
-    e->bad_version = w->op_version;  // until the factor below is made and checked
-    e->bad_row = set->row;
-    e->bad_n = n;
+    osti_opKeySet(&e->bad, w, set);  // until the factor below is made and checked
     if (size == 0 || (lu && 2 * size > e->cap)) {
       return 0;
     }
@@ -451,17 +442,13 @@ OST_HD int osti_envelopeSet(ostWorld* w, const ostRowSet* set, ostNum* x, const 
     // reached 1e-15 to 1e-10. So a new factor's first answer must solve its system to
     // OST_DIRECT_EXACT, or the factor is dropped and the solve left to PCR or GMRES
     osti_envSolve(e, n, lu, e->xs, b);
-    ostNum rr, bb;
-    osti_residualSet(w, set, e->xs, b, e->res, &rr, &bb);
-    if (!(rr <= OST_DIRECT_EXACT * OST_DIRECT_EXACT * bb)) {
+    if (!osti_solvesExactly(w, set, e->xs, b, e->res)) {
       e->rejects++;
       return 0;
     }
-    e->bad_version = -1;
-    e->version = w->op_version;
+    e->bad.version = -1;
+    osti_opKeySet(&e->kept, w, set);
     e->lu = lu;
-    e->set_row = set->row;
-    e->set_n = n;
     for (int l = 0; l < n; l++) x[l] = e->xs[l];
   } else {
     osti_envSolve(e, n, lu, x, b);

@@ -168,6 +168,14 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNu
 struct ostGeoWork_;
 struct ostEnvWork_;
 
+// a Newton operator on a row set: ostWorld.op_version and the set's rows pointer and count. A
+// factor kept for it, or one that failed for it, is recognized by this key (osti_opKeyIs)
+typedef struct ostOpKey_ {
+  int        version;             // op_version (-1: none)
+  const int* row;
+  int        n;
+} ostOpKey;
+
 typedef struct ostWorld_ {        // one world: sizes and pointers into one allocation
   int    nv;                      // degrees of freedom
   int    nrow;                    // rows of the current iterate
@@ -205,9 +213,8 @@ typedef struct ostWorld_ {        // one world: sizes and pointers into one allo
   ostNum* Ad_large;               // the dense Schur matrix, half-solves by dof and pivots of
   ostNum* Yt_large;               // islands above OST_DIRECT_MAX rows (host contexts only,
   int*   Apiv_large;              // ostu_denseLargeInit; NULL: none)
-  int    dense_bad;               // op_version of a large set whose dense answer missed
-  const int* dense_bad_row;       // OST_DIRECT_EXACT (-1: none), and the set: not factored
-  int    dense_bad_n;             // again for that operator (osti_directLargeSet)
+  ostOpKey dense_bad;             // the operator whose dense answer missed OST_DIRECT_EXACT:
+                                  // not factored again (osti_directLargeSet)
   int    direct_large;            // 1 once a Krylov solve of an island above OST_DIRECT_MAX
                                   // rows that Ad_large holds stopped at pcr_iter in this Newton
                                   // loop: such islands are then solved directly
@@ -216,6 +223,7 @@ typedef struct ostWorld_ {        // one world: sizes and pointers into one allo
   OST_WORLD_ARRAYS(X)
 #undef X
 } ostWorld;
+
 
 
 // the widest row pattern of a dof tree: a row couples at most two bodies, and its pattern is
@@ -272,7 +280,7 @@ OST_HD void ostu_worldInitFor(ostWorld* w, void* buf, int nv, int ncol, int nrow
   w->yrow = NULL;
   w->env = NULL;
   w->op_version = 0;
-  w->dense_bad = -1;
+  w->dense_bad.version = -1;
   w->sat_used = w->sat_off = 0;
   w->cpl_used = w->cpl_n = 0;
   w->ndense_large = 0;
@@ -1082,6 +1090,20 @@ typedef struct ostRowSet_ {       // rows and trees the Schur operator runs on
   int        ntree;               // their number
 } ostRowSet;
 
+
+// 1 if key k is the world's current operator on this set
+OST_HD int osti_opKeyIs(const ostOpKey* k, const ostWorld* w, const ostRowSet* set) {
+  return k->version == w->op_version && k->row == set->row && k->n == set->n;
+}
+
+
+// key k := the world's current operator on this set
+OST_HD void osti_opKeySet(ostOpKey* k, const ostWorld* w, const ostRowSet* set) {
+  k->version = w->op_version;
+  k->row = set->row;
+  k->n = set->n;
+}
+
 #define OST_SET_ROW(set, l) ((set)->row ? (set)->row[l] : (l))
 
 // the set of all rows and dofs of the current iterate
@@ -1537,6 +1559,16 @@ OST_HD void osti_residualSet(ostWorld* w, const ostRowSet* set, const ostNum* x,
 }
 
 
+// 1 if x solves the set's Newton system to OST_DIRECT_EXACT (a direct answer may be used);
+// r: scratch of set->n
+OST_HD int osti_solvesExactly(ostWorld* w, const ostRowSet* set, const ostNum* x,
+                              const ostNum* b, ostNum* r) {
+  ostNum rr, bb;
+  osti_residualSet(w, set, x, b, r, &rr, &bb);
+  return rr <= OST_DIRECT_EXACT * OST_DIRECT_EXACT * bb;
+}
+
+
 #ifndef OST_NUM_TYPE
 // osti_directSet on the world's own dense arrays for a set of at most OST_DIRECT_MAX rows, on its
 // large-island arrays (ostu_denseLargeInit) for a larger one
@@ -1544,7 +1576,7 @@ OST_HD int osti_directLargeSet(ostWorld* w, const ostRowSet* set, ostNum* x, con
   if (set->n <= OST_DIRECT_MAX) {
     return osti_directSet(w, set, x, b);
   }
-  if (w->dense_bad == w->op_version && w->dense_bad_row == set->row && w->dense_bad_n == set->n) {
+  if (osti_opKeyIs(&w->dense_bad, w, set)) {
     return 0;  // this operator's dense answer missed already
   }
   ostNum* Ad = w->Ad;
@@ -1557,12 +1589,8 @@ OST_HD int osti_directLargeSet(ostWorld* w, const ostRowSet* set, ostNum* x, con
     // its answer must solve the system to OST_DIRECT_EXACT (osti_envelopeSet's test): nearly
     // singular islands (the loop's: 274 of 66,352 dense solves in 1.5 s when all went dense) got
     // relative residuals of 1e-6 to 1, and Newton on such directions stalled
-    ostNum rr, bb;
-    osti_residualSet(w, set, x, b, w->pcr + (size_t)w->nrow_max, &rr, &bb);
-    if (!(rr <= OST_DIRECT_EXACT * OST_DIRECT_EXACT * bb)) {
-      w->dense_bad = w->op_version;
-      w->dense_bad_row = set->row;
-      w->dense_bad_n = set->n;
+    if (!osti_solvesExactly(w, set, x, b, w->pcr + (size_t)w->nrow_max)) {
+      osti_opKeySet(&w->dense_bad, w, set);
       return 0;
     }
   }
