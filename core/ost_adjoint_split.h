@@ -8,6 +8,66 @@
 
 #include "ost_adjoint_work.h"
 
+// After the values pass (w->M holds Mt's factor, w->diag the rows' diagonal, the rows at q+):
+// x_i = Mt^-1 J_i' and d_i = J_i Mt^-1 J_i' at the values into wk->X and wk->diag0, and the
+// pairs in contact into wk->pairs (ascending; returns their count).
+OST_HD int ostx_rowSolves(ostJacWork* wk, int nrow) {
+  ostWorld* w = &wk->w;
+  int nv = w->nv, np = 0;
+  ostNum* x = w->tmp;
+  for (int i = 0; i < nrow; i++) {
+    for (int j = 0; j < nv; j++) x[j] = (double)w->J[(size_t)i * nv + j];
+    osti_massSolve(w, x);
+    for (int j = 0; j < nv; j++) wk->X[(size_t)i * nv + j] = (double)x[j];
+    wk->diag0[i] = (double)w->diag[i];
+  }
+  for (int i = 0; i < wk->k.ncon; i++) {
+    int p = wk->k.contact_pair[i];
+    if (np == 0 || wk->pairs[np - 1] != p) wk->pairs[np++] = p;
+  }
+  return np;
+}
+
+
+// The residual R of a pass that moved J (dJ) or Mt (dM, unfactored in Mt) but not the point:
+// the Jacobi diagonal takes its values from the values pass and its derivatives in closed form,
+//   d(J_i Mt^-1 J_i') = 2 x_i' dJ_i' - x_i' dMt x_i,      x_i = Mt^-1 J_i'                (15b)
+// (Mt symmetric, read in its lower triangle over each dof's ancestors, as the tree factor
+// reads it), instead of Mt's factor and a solve per row in dual numbers.
+OST_HD void ostx_residualAtValues(ostJacWork* wk, const ostdStep* st, const ostNum* Mt, int dJ,
+                                  int dM) {
+  ostWorld* w = &wk->w;
+  int nv = w->nv;
+  const int* par = w->dof_parent;
+  osti_residualDynamics(w, Mt, wk->u, wk->lambda, wk->R);
+  for (int i = 0; i < w->nrow; i++) {
+    const double* x = wk->X + (size_t)i * nv;
+    const ostNum* J = w->J + (size_t)i * nv;
+    double dd[OSTX_CHUNK];
+    for (int c = 0; c < OSTX_CHUNK; c++) dd[c] = 0;
+    for (int k = 0; k < nv; k++) {
+      double xk = x[k];
+      if (xk == 0) {
+        continue;
+      }
+      for (int c = 0; dJ && c < OSTX_CHUNK; c++) dd[c] += 2 * xk * J[k].d[c];
+      if (dM) {  // x_k (dMt_kk x_k + 2 sum over k's ancestors j of dMt_kj x_j)
+        const ostNum* Mk = Mt + (size_t)k * nv;
+        double a[OSTX_CHUNK];
+        for (int c = 0; c < OSTX_CHUNK; c++) a[c] = Mk[k].d[c] * xk;
+        for (int j = par ? par[k] : k - 1; j >= 0; j = par ? par[j] : j - 1) {
+          for (int c = 0; c < OSTX_CHUNK; c++) a[c] += 2 * Mk[j].d[c] * x[j];
+        }
+        for (int c = 0; c < OSTX_CHUNK; c++) dd[c] -= a[c] * xk;
+      }
+    }
+    w->diag[i].v = wk->diag0[i];
+    for (int c = 0; c < OSTX_CHUNK; c++) w->diag[i].d[c] = wk->diag0[i] > 1e-300 ? dd[c] : 0;
+  }
+  osti_residualRows(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R + nv);
+}
+
+
 // The fast path to ostx_jacColumns' G (which stays its oracle): each input column is
 // evaluated through the part of the step that it moves, and its path through
 // q+ = (q- (+) dq-) (+) h u by the chain rule, d/dc = d/dc|q+ held + (dR/dq+) T_c with
@@ -64,6 +124,7 @@ OST_HD int ostx_jacColumnsSplit(ostJacWork* wk, const ostdStep* st, const double
     *r2 = 0;
     for (int i = 0; i < ny; i++) *r2 += wk->R[i].v * wk->R[i].v;
   }
+  int npair = ostx_rowSolves(wk, nrow);
 
 #define OSTX_CEIL(n) (((n) + C - 1) / C)
 #define OSTX_COLUMN(c, k) \
@@ -147,7 +208,7 @@ OST_HD int ostx_jacColumnsSplit(ostJacWork* wk, const ostdStep* st, const double
         for (int k = 0; k < C && c0 + k < nv; k++) wk->dqm[c0 + k].d[k] = 1;
         osti_integratePos(m, wk->qpos, wk->dqm, 1);
         osti_nativeStart(m, &wk->km, w, wk->qpos, wk->uprev, wk->input, wk->qfrc, wk->xfrc, h);
-        osti_stepResidual(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R);
+        ostx_residualAtValues(wk, st, w->M, 0, 1);
         for (int k = 0; k < C && c0 + k < nv; k++) {
           OSTX_COLUMN(ny + c0 + k, k);
           wk->dqm[c0 + k] = 0;
@@ -160,14 +221,17 @@ OST_HD int ostx_jacColumnsSplit(ostJacWork* wk, const ostdStep* st, const double
         osti_integratePos(m, wk->qpos, wk->dqm, 1);
         osti_nativeStart(m, &wk->km, w, wk->qpos, wk->uprev, wk->input, wk->qfrc, wk->xfrc, h);
         for (int i = 0; i < nq; i++) wk->qplus[i] = wk->qref[i];
+        wk->k.pair_only = wk->pairs;  // a pair's contacts depend on its own geoms alone
+        wk->k.npair_only = npair;
         int rc = osti_nativeIterate(m, &wk->k, w, wk->qplus, wk->input, st->lookahead, h);
+        wk->k.pair_only = NULL;
         if (!rc && w->nrow == nrow && st->truncate) {
           // contact J held (its derivative by the friction scale dropped)
           osti_tangentLinear(m, wk->dqp, wk->qplus, wk->qref);
           osti_truncateContacts(w, wk->dqp);
         }
         if (!rc && w->nrow == nrow) {
-          osti_stepResidual(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R);
+          ostx_residualAtValues(wk, st, w->M, 1, 1);
         }
         ostx_clearParamSeeds(m);
         if (rc || w->nrow != nrow) {
@@ -180,17 +244,19 @@ OST_HD int ostx_jacColumnsSplit(ostJacWork* wk, const ostdStep* st, const double
         for (int i = 0; i < nq; i++) wk->qplus[i] = wk->qref[i];
         for (int k = 0; k < C && c0 + k < nv; k++) wk->dqm[c0 + k].d[k] = 1;
         osti_integratePos(m, wk->qplus, wk->dqm, 1);
-        if (osti_nativeIterate(m, &wk->k, w, wk->qplus, wk->input, st->lookahead, h)
-            || w->nrow != nrow) {
+        wk->k.pair_only = wk->pairs;
+        wk->k.npair_only = npair;
+        int rc = osti_nativeIterate(m, &wk->k, w, wk->qplus, wk->input, st->lookahead, h);
+        wk->k.pair_only = NULL;
+        if (rc || w->nrow != nrow) {
           return 2;
         }
         if (st->truncate) {
           osti_tangentLinear(m, wk->dqp, wk->qplus, wk->qref);
           osti_truncateContacts(w, wk->dqp);
         }
-        for (int i = 0; i < nv * nv; i++) w->M[i] = wk->M0[i];
         for (int i = 0; i < nv; i++) w->qfrc_explicit[i] = wk->f0[i];
-        osti_stepResidual(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R);
+        ostx_residualAtValues(wk, st, wk->M0, 1, 0);
         for (int k = 0; k < C && c0 + k < nv; k++) {
           for (int i = 0; i < ny; i++) Rq[(size_t)i * nv + c0 + k] = wk->R[i].d[k];
           wk->dqm[c0 + k] = 0;

@@ -34,6 +34,9 @@ typedef struct ostJacWork_ {      // the dual evaluation's state: pointers into 
   ostNum *M0, *f0, *fp0;          // the step's Mt (unfactored, nv x nv), f (nv) and f without
                                   // the explicit actuators (nv), at the values
   double *Rq, *T;                 // dR/dq+ ((nv + nrow_max) x nv) and d(dq+)/d(u, dq-) (nv x 2 nv)
+  double *X, *diag0;              // x_i = Mt^-1 J_i' (nrow_max x nv) and J_i Mt^-1 J_i' (nrow_max)
+                                  // at the values (ostx_rowSolves)
+  int*      pairs;                // the pairs in contact at the values (npair), ascending
   ostRow*   rec;                  // the recorded rows as dual rows (matching keys)
   ostNum*   rec_lambda;           // their multipliers
   unsigned char* used;            // matching scratch
@@ -50,9 +53,10 @@ OST_HD size_t ostx_jacVectors(ostSizes s, int nrow_max) {
 }
 
 
-// doubles of the work: dR/dq+ and d(dq+)/d(u, dq-)
+// doubles of the work: dR/dq+, d(dq+)/d(u, dq-), the rows' Mt^-1 J_i' and their diagonal
 OST_HD size_t ostx_jacDoubles(ostSizes s, int nrow_max) {
-  return ((size_t)s.nv + nrow_max) * s.nv + 2 * (size_t)s.nv * s.nv;
+  return ((size_t)s.nv + nrow_max) * s.nv + 2 * (size_t)s.nv * s.nv
+         + (size_t)nrow_max * (s.nv + 1);
 }
 
 
@@ -69,7 +73,8 @@ OST_HD size_t ostx_jacWorkSize(ostSizes s, int nrow_max) {
          + OST_ALIGN64(ostx_jacVectors(s, nrow_max) * sizeof(ostNum))
          + OST_ALIGN64(ostx_jacDoubles(s, nrow_max) * sizeof(double))
          + OST_ALIGN64((size_t)nrow_max * sizeof(ostRow)) + OST_ALIGN64((size_t)nrow_max)
-         + OST_ALIGN64(sizeof(ostModel)) + OST_ALIGN64(ostx_jacParamVectors(s) * sizeof(ostNum));
+         + OST_ALIGN64(sizeof(ostModel)) + OST_ALIGN64(ostx_jacParamVectors(s) * sizeof(ostNum))
+         + OST_ALIGN64((size_t)s.npair * sizeof(int));
 }
 
 
@@ -90,6 +95,8 @@ OST_HD void ostx_jacWorkInit(ostJacWork* wk, void* block, ostModel* m, int nrow_
   p += OST_ALIGN64(ostx_jacVectors(s, nrow_max) * sizeof(ostNum));
   wk->Rq = (double*)p;
   wk->T = wk->Rq + ((size_t)s.nv + nrow_max) * s.nv;
+  wk->X = wk->T + 2 * (size_t)s.nv * s.nv;
+  wk->diag0 = wk->X + (size_t)nrow_max * s.nv;
   p += OST_ALIGN64(ostx_jacDoubles(s, nrow_max) * sizeof(double));
   wk->rec = (ostRow*)p;
   p += OST_ALIGN64((size_t)nrow_max * sizeof(ostRow));
@@ -98,6 +105,8 @@ OST_HD void ostx_jacWorkInit(ostJacWork* wk, void* block, ostModel* m, int nrow_
   wk->own = (ostModel*)p;
   p += OST_ALIGN64(sizeof(ostModel));
   wk->own_param = (ostNum*)p;
+  p += OST_ALIGN64(ostx_jacParamVectors(s) * sizeof(ostNum));
+  wk->pairs = (int*)p;
   wk->qpos = v;   v += s.nq;
   wk->qplus = v;  v += s.nq;
   wk->qref = v;   v += s.nq;

@@ -102,9 +102,10 @@ OST_HD int osti_collidePair(const ostModel* m, const ostKin* k, int p, ostContac
 }
 
 
-// all contacts at the current kinematics (osti_kinematics ran) into k->contact, whose
-// OST_MAXCONPAIR slack entries past ncon_max let each pair write freely; sets k->overflow and
-// keeps the first ncon_max contacts when there are more
+// all contacts at the current kinematics (osti_kinematics ran) of every pair, or of the pairs
+// k->pair_only when set, into k->contact, whose OST_MAXCONPAIR slack entries past ncon_max let
+// each pair write freely; sets k->overflow and keeps the first ncon_max contacts when there are
+// more
 OST_HD void osti_collision(const ostModel* m, ostKin* k) {
   int ncon_max = m->s.ncon_max;
   k->ncon = 0;
@@ -112,7 +113,9 @@ OST_HD void osti_collision(const ostModel* m, ostKin* k) {
   if (m->disableflags & OST_DSBL_CONTACT) {
     return;
   }
-  for (int p = 0; p < m->s.npair; p++) {
+  int npair = k->pair_only ? k->npair_only : m->s.npair;
+  for (int ip = 0; ip < npair; ip++) {
+    int p = k->pair_only ? k->pair_only[ip] : ip;
     int n = osti_collidePair(m, k, p, k->contact + k->ncon);
     for (int i = 0; i < n; i++) {
       k->contact_pair[k->ncon + i] = p;

@@ -192,6 +192,8 @@ typedef struct ostKin_ {          // one world's kinematics: sizes and pointers 
   ostSizes s;                     // sizes (copied from the model)
   int      ncon;                  // contacts in `contact`
   int      overflow;              // 1 if the last collision pass exceeded ncon_max
+  const int* pair_only;           // NULL: osti_collision tries every pair; else only these
+  int      npair_only;            // (ascending), the adjoint's passes at a fixed contact set
 #define X(type, name, r, c) type* name;
   OST_KIN_ARRAYS(X)
 #undef X
@@ -239,6 +241,8 @@ OST_HD void ostu_kinInit(ostKin* k, void* buf, ostSizes s) {
   k->s = s;
   k->ncon = 0;
   k->overflow = 0;
+  k->pair_only = NULL;
+  k->npair_only = 0;
 #define X(type, name, r, c)                                       \
   k->name = (type*)p;                                             \
   p += OST_ALIGN64((size_t)(r) * (c) * sizeof(type));
