@@ -29,6 +29,44 @@ OST_HD int ostx_rowSolves(ostJacWork* wk, int nrow) {
 }
 
 
+// The dynamics rows R (nv) of osti_residualDynamics, Mt (u - u-) - h (f + J' lambda), in a pass
+// that varies f and only some of the other parts: Mt (dM), u- (du) or J (dJ), never u or lambda.
+// The values are the values pass's (wk->Rdyn0), the derivatives only the products' parts that
+// can be non-zero (the terms dropped are exact zeros).
+OST_HD void ostx_residualDynamicsPart(ostJacWork* wk, const ostNum* Mt, int dM, int du, int dJ) {
+  ostWorld* w = &wk->w;
+  int nv = w->nv, nrow = w->nrow;
+  double h = (double)w->h;
+  ostNum* g = w->tmp;  // J' lambda's derivatives
+  for (int i = 0; i < nv; i++) {
+    for (int c = 0; c < OSTX_CHUNK; c++) g[i].d[c] = 0;
+  }
+  for (int r = 0; dJ && r < nrow; r++) {
+    double lam = (double)wk->lambda[r];
+    const ostNum* Jr = w->J + (size_t)r * nv;
+    for (int i = 0; i < nv && lam != 0; i++) {
+      for (int c = 0; c < OSTX_CHUNK; c++) g[i].d[c] += Jr[i].d[c] * lam;
+    }
+  }
+  for (int i = 0; i < nv; i++) {
+    const ostNum* Mi = Mt + (size_t)i * nv;
+    double d[OSTX_CHUNK];
+    for (int c = 0; c < OSTX_CHUNK; c++) d[c] = 0;
+    for (int j = 0; j < nv && (dM || du); j++) {
+      double tj = (double)wk->u[j] - (double)wk->uprev[j];
+      for (int c = 0; c < OSTX_CHUNK; c++) {
+        if (dM) d[c] += Mi[j].d[c] * tj;
+        if (du) d[c] -= Mi[j].v * wk->uprev[j].d[c];
+      }
+    }
+    wk->R[i].v = wk->Rdyn0[i];
+    for (int c = 0; c < OSTX_CHUNK; c++) {
+      wk->R[i].d[c] = d[c] - h * (w->qfrc_explicit[i].d[c] + g[i].d[c]);
+    }
+  }
+}
+
+
 // The residual R of a pass that moved J (dJ) or Mt (dM, unfactored in Mt) but not the point:
 // the Jacobi diagonal takes its values from the values pass and its derivatives in closed form,
 //   d(J_i Mt^-1 J_i') = 2 x_i' dJ_i' - x_i' dMt x_i,      x_i = Mt^-1 J_i'                (15b)
@@ -39,7 +77,11 @@ OST_HD void ostx_residualAtValues(ostJacWork* wk, const ostdStep* st, const ostN
   ostWorld* w = &wk->w;
   int nv = w->nv;
   const int* par = w->dof_parent;
-  osti_residualDynamics(w, Mt, wk->u, wk->lambda, wk->R);
+  if (dJ && dM) {
+    osti_residualDynamics(w, Mt, wk->u, wk->lambda, wk->R);
+  } else {
+    ostx_residualDynamicsPart(wk, Mt, dM, 0, dJ);
+  }
   for (int i = 0; i < w->nrow; i++) {
     const double* x = wk->X + (size_t)i * nv;
     const ostNum* J = w->J + (size_t)i * nv;
@@ -125,6 +167,7 @@ OST_HD int ostx_jacColumnsSplit(ostJacWork* wk, const ostdStep* st, const double
     for (int i = 0; i < ny; i++) *r2 += wk->R[i].v * wk->R[i].v;
   }
   int npair = ostx_rowSolves(wk, nrow);
+  for (int i = 0; i < nv; i++) wk->Rdyn0[i] = wk->R[i].v;
 
 #define OSTX_CEIL(n) (((n) + C - 1) / C)
 #define OSTX_COLUMN(c, k) \
@@ -165,7 +208,7 @@ OST_HD int ostx_jacColumnsSplit(ostJacWork* wk, const ostdStep* st, const double
         for (int k = 0; k < C && c0 + k < nv; k++) wk->uprev[c0 + k].d[k] = 1;
         for (int i = 0; i < nv; i++) w->qvel_prev[i] = wk->uprev[i];
         osti_nativeStartVel(m, &wk->km, w, wk->qpos, wk->uprev, wk->input, wk->qfrc, wk->xfrc, h);
-        osti_residualDynamics(w, wk->M0, wk->u, wk->lambda, wk->R);
+        ostx_residualDynamicsPart(wk, wk->M0, 0, 1, 0);
         for (int k = 0; k < C && c0 + k < nv; k++) {
           int c = ny + nv + c0 + k;
           for (int i = 0; i < ny; i++) G[(size_t)i * ncol + c] = i < nv ? wk->R[i].d[k] : 0;
@@ -183,7 +226,7 @@ OST_HD int ostx_jacColumnsSplit(ostJacWork* wk, const ostdStep* st, const double
         for (int i = 0; i < nv; i++) w->qfrc_explicit[i] = wk->fp0[i];
         osti_nativeActuatorForces(m, &wk->km, w->qfrc_explicit, wk->uprev, wk->input);
         osti_nativeServoRows(m, &wk->k, w, wk->input, h);
-        osti_residualDynamics(w, wk->M0, wk->u, wk->lambda, wk->R);
+        ostx_residualDynamicsPart(wk, wk->M0, 0, 0, 0);
         osti_residualRowsJu(w, wk->u, wk->lambda, st->reg, st->creep, st->fb_eps, wk->R + nv,
                             ju_seeded);
         ju_seeded = 0;

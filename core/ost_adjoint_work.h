@@ -36,6 +36,7 @@ typedef struct ostJacWork_ {      // the dual evaluation's state: pointers into 
   double *Rq, *T;                 // dR/dq+ ((nv + nrow_max) x nv) and d(dq+)/d(u, dq-) (nv x 2 nv)
   double *X, *diag0;              // x_i = Mt^-1 J_i' (nrow_max x nv) and J_i Mt^-1 J_i' (nrow_max)
                                   // at the values (ostx_rowSolves)
+  double*   Rdyn0;                // the dynamics rows' values (nv)
   int*      pairs;                // the pairs in contact at the values (npair), ascending
   ostRow*   rec;                  // the recorded rows as dual rows (matching keys)
   ostNum*   rec_lambda;           // their multipliers
@@ -53,10 +54,11 @@ OST_HD size_t ostx_jacVectors(ostSizes s, int nrow_max) {
 }
 
 
-// doubles of the work: dR/dq+, d(dq+)/d(u, dq-), the rows' Mt^-1 J_i' and their diagonal
+// doubles of the work: dR/dq+, d(dq+)/d(u, dq-), the rows' Mt^-1 J_i' and their diagonal, the
+// dynamics rows' values
 OST_HD size_t ostx_jacDoubles(ostSizes s, int nrow_max) {
   return ((size_t)s.nv + nrow_max) * s.nv + 2 * (size_t)s.nv * s.nv
-         + (size_t)nrow_max * (s.nv + 1);
+         + (size_t)nrow_max * (s.nv + 1) + s.nv;
 }
 
 
@@ -97,6 +99,7 @@ OST_HD void ostx_jacWorkInit(ostJacWork* wk, void* block, ostModel* m, int nrow_
   wk->T = wk->Rq + ((size_t)s.nv + nrow_max) * s.nv;
   wk->X = wk->T + 2 * (size_t)s.nv * s.nv;
   wk->diag0 = wk->X + (size_t)nrow_max * s.nv;
+  wk->Rdyn0 = wk->diag0 + nrow_max;
   p += OST_ALIGN64(ostx_jacDoubles(s, nrow_max) * sizeof(double));
   wk->rec = (ostRow*)p;
   p += OST_ALIGN64((size_t)nrow_max * sizeof(ostRow));
