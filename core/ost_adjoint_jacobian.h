@@ -26,7 +26,8 @@
 // 2 nv + na + nu + nparam) receives the rows R (n) then O = (dq+, u+, act+) (2 nv + na),
 // differentiated by the columns y = (u, lambda) (n) then xi = (dq-, u-, act-, ctrl, theta).
 // *resid gets |R| at the solution. dense: 1 every column through the whole evaluation (the
-// oracle, ostx_jacColumns), 0 ostx_jacColumnsSplit (2: split as 3 threads, for tests). Returns
+// oracle, ostx_jacColumns), 0 ostx_jacColumnsSplit (2: split as 3 threads, for tests; 3: split
+// without the columns of the start's inputs, ostx_jacColumnsSplit's skip_start). Returns
 // 0, 1 if G needs more than G_cap doubles (*n still set), 2 if the rows overflow or differ
 // between evaluations.
 OST_HD int ostx_stepJacobian(ostJacWork* wk, const ostdStep* st, double* G, size_t G_cap,
@@ -51,7 +52,7 @@ OST_HD int ostx_stepJacobian(ostJacWork* wk, const ostdStep* st, double* G, size
     int nt = dense == 2 ? 3 : 1;
     for (int t = 0; t < nt; t++) {
       if (ostx_jacColumnsSplit(wk, st, NULL, ny, G, ncol, t == 0 ? &r2 : NULL, t == 0, t, nt,
-                               wk->Rq, wk->T)) {
+                               wk->Rq, wk->T, dense == 3)) {
         return 2;
       }
     }
@@ -119,7 +120,8 @@ OST_HD void ostx_recordColumns(ostModel* m, const ostAdjointLayout* A, char* lan
     ostx_jacOwnParams(&jw);
   }
   int ncol = ny + 2 * A->s.nv + A->s.na + A->s.nu + A->nparam;
-  if (ostx_jacColumnsSplit(&jw, &st, al.lam, ny, al.G, ncol, NULL, 0, t, A->njac, al.Rq, al.T)) {
+  if (ostx_jacColumnsSplit(&jw, &st, al.lam, ny, al.G, ncol, NULL, 0, t, A->njac, al.Rq, al.T,
+                           0)) {
     al.info[OST_ADJ_FAILED] = OST_STEP_OVERFLOW;
   }
 }

@@ -132,9 +132,12 @@ OST_HD void ostx_residualAtValues(ostJacWork* wk, const ostdStep* st, const ostN
 // Same inputs and result as ostx_jacColumns with c0 = 0, cstep = OSTX_CHUNK (the columns differ
 // from the oracle's by rounding only, and not at all with nt). rows_ready: this work (the same
 // ostJacWork, not only its block) ran the step's structure pass last, so its rows are reused.
+// skip_start: the UM, AC and DQ columns are left out (their R and act+ rows zero), for a
+// backward pass that takes w' dR/dxi of those inputs by a reverse sweep instead
+// (plugin/ost_adjoint_rev.h).
 OST_HD int ostx_jacColumnsSplit(ostJacWork* wk, const ostdStep* st, const double* lam, int ny,
                                 double* G, int ncol, double* r2, int rows_ready, int t, int nt,
-                                double* Rq, double* T) {
+                                double* Rq, double* T, int skip_start) {
   ostModel* m = wk->m;
   ostWorld* w = &wk->w;
   int nq = m->s.nq, nv = m->s.nv, nu = m->s.nu, na = m->s.na, nrow = ny - nv;
@@ -179,6 +182,16 @@ OST_HD int ostx_jacColumnsSplit(ostJacWork* wk, const ostdStep* st, const double
   for (int kind = 0, first = 0; kind < NKIND; first += nunit[kind++]) {
     for (int unit = first + ((t - first) % nt + nt) % nt; unit < first + nunit[kind]; unit += nt) {
       int c0 = (unit - first) * C;
+      if (skip_start && (kind == UM || kind == AC || kind == DQ)) {
+        int col0 = kind == DQ ? ny : (kind == UM ? ny + nv : ny + 2 * nv);
+        int ncols = kind == AC ? na + nu : nv;
+        for (int k = 0; k < C && c0 + k < ncols; k++) {
+          for (int i = 0; i < ny + 2 * nv + na; i++) {
+            if (i < ny || (kind == AC && i >= ny + 2 * nv)) G[(size_t)i * ncol + col0 + c0 + k] = 0;
+          }
+        }
+        continue;
+      }
       switch (kind) {
       case Y: {  // the dynamics rows' columns are Mt's and -h J's; the constraint rows by R
         int has_u = c0 < nv;

@@ -14,6 +14,7 @@
 #include <string.h>
 
 #include "ost_adjoint_dual.h"
+#include "ost_adjoint_rev.h"
 #include "ost_internal.h"
 
 //---------------------------------- Parameters ----------------------------------------------------
@@ -70,6 +71,7 @@ int ost_paramDifferentiable(const mjModel* m, int i) {
 void ost_defaultGradOptions(ostGradOptions* go) {
   go->truncate = 0;
   go->params = 0;
+  go->forward_only = 0;
 }
 
 
@@ -144,6 +146,7 @@ int ost_recordSubstep(ostContext* c, const mjModel* m, const mjData* d, mjtNum h
 void ost_adjointFree(ostContext* c) {
   free(c->rec_buf);
   ostd_workFree(c->adj_work);
+  ostr_workFree(c->adj_rev);
   free(c->adj_fric_geom);
   free(c->adj_fric_weight);
   free(c->adj_scratch);
@@ -162,13 +165,15 @@ static int adjointPrepare(ostContext* c, const mjModel* m) {
     return OST_OK;
   }
   ostd_workFree(c->adj_work);
+  ostr_workFree(c->adj_rev);
   free(c->adj_fric_geom);
   free(c->adj_fric_weight);
   c->adj_work = ostd_workCreate(&c->native, c->world.nrow_max);
+  c->adj_rev = ostr_workCreate(&c->native, c->world.nrow_max);
   int npair = c->native.s.npair > 0 ? c->native.s.npair : 1;
   c->adj_fric_geom = (int*)malloc(2 * npair * sizeof(int));
   c->adj_fric_weight = (mjtNum*)malloc(2 * npair * sizeof(mjtNum));
-  if (!c->adj_work || !c->adj_fric_geom || !c->adj_fric_weight) {
+  if (!c->adj_work || !c->adj_rev || !c->adj_fric_geom || !c->adj_fric_weight) {
     return ost_fail(c, OST_ERR_MEMORY, "cannot allocate the adjoint's work space");
   }
   c->adj_model_block = c->native_block;
@@ -189,12 +194,9 @@ static int adjointScratch(ostContext* c, size_t n) {
 }
 
 
-// the exact Jacobian G of record r into the scratch; *ny = nv + rows; with factor set, K =
-// G[0:ny, 0:ny] is copied after G and LU-factored there (pivots after K)
-static int recordJacobian(ostContext* c, const mjModel* m, const ostRecord* r, int truncate,
-                          int params, int factor, int* ny, int** piv) {
-  int nv = m->nv, nx = 2 * nv + m->na, nparam = params ? ost_nparam(m) : 0, status;
-  int adr[OST_NPARAM + 1];
+// record r as its backward pass reads it; adr (OST_NPARAM + 1) is filled
+static ostdStep recordStep(ostContext* c, const mjModel* m, const ostRecord* r, int truncate,
+                           int nparam, int* adr) {
   for (int g = 0; g <= OST_NPARAM; g++) {
     adr[g] = ost_paramAddress(m, g);
   }
@@ -202,11 +204,24 @@ static int recordJacobian(ostContext* c, const mjModel* m, const ostRecord* r, i
                 r->xfrc_applied, r->rows, r->lambda, r->head->nrow, truncate, r->head->h,
                 c->opt.margin, c->opt.regularization, c->opt.friction_creep, c->opt.fb_eps, nparam,
                 adr, c->adj_fric_geom, c->adj_fric_weight, r->act_prev};
+  return s;
+}
+
+
+// the exact Jacobian G of record r into the scratch; *ny = nv + rows; with factor set, K =
+// G[0:ny, 0:ny] is copied after G and LU-factored there (pivots after K). skip_start: without
+// the columns of the start's inputs (dq-, u-, act-, ctrl), zero but for the chain rule through
+// q+ (ostd_stepJacobian's dense = 3), for startVjp
+static int recordJacobian(ostContext* c, const mjModel* m, const ostRecord* r, int truncate,
+                          int params, int factor, int skip_start, int* ny, int** piv) {
+  int nv = m->nv, nx = 2 * nv + m->na, nparam = params ? ost_nparam(m) : 0, status;
+  int adr[OST_NPARAM + 1];
+  ostdStep s = recordStep(c, m, r, truncate, nparam, adr);
   double resid;
   for (;;) {
     size_t cap = c->adj_scratch_cap > (size_t)nv ? c->adj_scratch_cap : 0;
     int rc = ostd_stepJacobian(c->adj_work, &s, c->adj_scratch, cap / 2, ny, &resid,
-                               c->adj_oracle);
+                               c->adj_oracle ? c->adj_oracle : (skip_start ? 3 : 0));
     if (rc == 0) {
       break;
     }
@@ -235,13 +250,39 @@ static int recordJacobian(ostContext* c, const mjModel* m, const ostRecord* r, i
 }
 
 
+// gxi (2 nv + na + nu) += w' dR/dxi + g_act' dact+/dxi for the start's inputs xi = (dq-, u-,
+// act-, ctrl) with q+ and y held, by one reverse sweep (ost_adjoint_rev.h): the part of the
+// implicit function theorem's dL/dxi = O_xi' g + R_xi' w that recordJacobian left out with
+// skip_start. scratch: 2 nv + na + nu doubles.
+static int startVjp(ostContext* c, const mjModel* m, const ostRecord* r, int truncate, int ny,
+                    const mjtNum* w, const mjtNum* g, mjtNum* gxi, mjtNum* scratch) {
+  int nv = m->nv, na = m->na, nu = m->nu, nrow = ny - nv, adr[OST_NPARAM + 1];
+  ostdStep s = recordStep(c, m, r, truncate, 0, adr);
+  const double *X, *diag0;
+  void* rows;
+  double *J, *lam, *length;
+  ostr_staging(c->adj_rev, &rows, &J, &lam, &length);
+  ostd_stepValues(c->adj_work, nrow, &X, &diag0, lam, rows, J, length);
+  int rc = ostr_startVjp(c->adj_rev, &s, nrow, X, diag0, w, g + 2 * nv, scratch);
+  if (rc) {
+    return rc == 1 ? ost_fail(c, OST_ERR_MEMORY, "cannot grow the adjoint's reverse tape")
+                   : ost_fail(c, OST_ERR_OVERFLOW, "row capacity exceeded in a reverse sweep");
+  }
+  for (int i = 0; i < 2 * nv + na + nu; i++) {
+    gxi[i] += scratch[i];
+  }
+  return OST_OK;
+}
+
+
 // backward pass of one record: g = (gq, gu, ga) at its q+, u+, act+ in; at its q-, u-, act- out
 // (in place, 2 nv + na); gctrl (nu) and gtheta accumulate
 static int recordBackward(ostContext* c, const mjModel* m, const ostRecord* r,
                           const ostGradOptions* go, mjtNum* g, mjtNum* gctrl, mjtNum* gtheta) {
   int nv = m->nv, nx = 2 * nv + m->na, nu = m->nu, ny, *piv, status;
   int nparam = go->params && gtheta ? ost_nparam(m) : 0;
-  if ((status = recordJacobian(c, m, r, go->truncate, nparam > 0, 0, &ny, &piv))) {
+  int reverse = !go->forward_only && !c->adj_oracle;
+  if ((status = recordJacobian(c, m, r, go->truncate, nparam > 0, 0, reverse, &ny, &piv))) {
     return status;
   }
   int ncol = ny + nx + nu + nparam;
@@ -251,6 +292,9 @@ static int recordBackward(ostContext* c, const mjModel* m, const ostRecord* r,
   mjtNum* gxi = w + ny;
   if (osti_adjointSolve(G, ny, nx, ncol, K, piv, w, g, gxi)) {
     return ost_fail(c, OST_ERR_NUMERIC, "the step's Jacobian is singular");
+  }
+  if (reverse && (status = startVjp(c, m, r, go->truncate, ny, w, g, gxi, gxi + ncol - ny))) {
+    return status;
   }
   memcpy(g, gxi, nx * sizeof(mjtNum));
   for (int i = 0; gctrl && i < nu; i++) {
@@ -341,7 +385,7 @@ int ost_adjointOracleDiff(const mjModel* m, mjData* d, int truncate, int params,
     mjtNum* G0 = NULL;
     for (int pass = 0; pass < 2 && !status; pass++) {
       c->adj_oracle = pass;
-      if ((status = recordJacobian(c, m, &r, truncate, params, 0, &ny, &piv))) {
+      if ((status = recordJacobian(c, m, &r, truncate, params, 0, 0, &ny, &piv))) {
         break;
       }
       ncol = ny + nx + m->nu + (params ? ost_nparam(m) : 0);
@@ -432,7 +476,7 @@ static int recordsTransition(ostContext* c, const mjModel* m, void* recs, size_t
     ostRecord r;
     off += ost_recordView(m, (char*)recs + off, &r);
     int ny, *piv;
-    if ((status = recordJacobian(c, m, &r, 0, 0, 1, &ny, &piv))) {
+    if ((status = recordJacobian(c, m, &r, 0, 0, 1, 0, &ny, &piv))) {
       break;
     }
     int ncol = ny + nx + nu;

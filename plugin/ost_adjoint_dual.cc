@@ -86,6 +86,32 @@ extern "C" int OSTD(_stepJacobian)(void* work, const ostdStep* st, double* G, si
 }
 
 
+extern "C" void OSTD(_stepValues)(void* work, int nrow, const double** X, const double** diag0,
+                                  double* lam, void* rows, double* J, double* length) {
+  const ostJacWork* jw = &((Work*)work)->jw;
+  int nv = jw->m->s.nv;
+  *X = jw->X;
+  *diag0 = jw->diag0;
+  ostRowDouble* rd = (ostRowDouble*)rows;
+  for (int i = 0; i < nrow; i++) {
+    const ostRow* r = jw->w.rows + i;
+    lam[i] = (double)jw->lambda[i];
+    rd[i].type = r->type;
+    rd[i].obj[0] = r->obj[0];
+    rd[i].obj[1] = r->obj[1];
+    rd[i].normal = r->normal;
+    for (int k = 0; k < 3; k++) rd[i].key[k] = (double)r->key[k];
+    rd[i].pos = (double)r->pos;
+    rd[i].mu = (double)r->mu;
+    rd[i].alpha = (double)r->alpha;
+    rd[i].lo = (double)r->lo;
+    rd[i].hi = (double)r->hi;
+    for (int j = 0; j < nv; j++) J[(size_t)i * nv + j] = (double)jw->w.J[(size_t)i * nv + j];
+  }
+  for (int i = 0; i < jw->m->s.nu; i++) length[i] = (double)jw->k.actuator_length[i];
+}
+
+
 extern "C" size_t OSTD(_jacWorkSize)(const void* model, int nrow_max) {
   return ostx_jacWorkSize(((const ostModelDouble*)model)->s, nrow_max);
 }
@@ -133,6 +159,11 @@ extern "C" void ostd_workFree(void* work) {
 extern "C" int ostd_stepJacobian(void* work, const ostdStep* st, double* G, size_t G_cap,
                                  int* n_out, double* resid, int dense) {
   return OSTD_BY_CHUNK(chunkOf(work), stepJacobian, (work, st, G, G_cap, n_out, resid, dense));
+}
+
+extern "C" void ostd_stepValues(void* work, int nrow, const double** X, const double** diag0,
+                                double* lam, void* rows, double* J, double* length) {
+  OSTD_BY_CHUNK(chunkOf(work), stepValues, (work, nrow, X, diag0, lam, rows, J, length));
 }
 
 extern "C" size_t ostd_jacWorkSize(const void* model, int nrow_max) {

@@ -30,10 +30,18 @@ void ostd_workFree(void* work);
 // na + nu + nparam) receives the rows R (n) then O = (dq+, u+, act+) (2 nv + na), differentiated
 // by the columns y = (u, lambda) (n) then xi = (dq-, u-, act-, ctrl, theta). *resid gets |R| at
 // the solution. dense = 1: every column through the whole evaluation (the test oracle); 0: each
-// input through the part of the step it moves (core/ost_adjoint_jacobian.h, ostx_jacColumnsSplit).
+// input through the part of the step it moves (core/ost_adjoint_jacobian.h, ostx_jacColumnsSplit;
+// 3: without the columns of the start's inputs, for ost_adjoint_rev.h).
 // Returns 0, 1 if G needs more than G_cap doubles (*n still set), 2 if the rows overflow.
 int ostd_stepJacobian(void* work, const ostdStep* s, double* G, size_t G_cap, int* n,
                       double* resid, int dense);
+
+// after ostd_stepJacobian (split), the values at the step of the nrow rows at q+: x_i = Mt^-1 J_i'
+// (nrow x nv) and J_i Mt^-1 J_i' (nrow) (pointers into the work, valid until its next call); the
+// multipliers matched onto them into lam (nrow), the rows into rows (nrow ostRow of the double
+// build), their Jacobian into J (nrow x nv) and the actuators' lengths at q+ into length (nu)
+void ostd_stepValues(void* work, int nrow, const double** X, const double** diag0, double* lam,
+                     void* rows, double* J, double* length);
 
 // bytes of the dual work of one batch adjoint lane (ostAdjointLayout.jac_size)
 size_t ostd_jacWorkSize(const void* model, int nrow_max);
@@ -56,6 +64,8 @@ void ostd_recordColumns(void* work, const ostAdjointLayout* A, char* lanes, int 
   int P##_stepJacobian(void* work, const ostdStep* s, double* G, size_t G_cap, int* n,           \
                        double* resid, int dense);                                                \
   size_t P##_jacWorkSize(const void* model, int nrow_max);                                       \
+  void P##_stepValues(void* work, int nrow, const double** X, const double** diag0, double* lam,  \
+                      void* rows, double* J, double* length);                                   \
   void P##_recordStructure(void* work, const ostAdjointLayout* A, char* lanes, int l, int i,     \
                            int nworld, int j, const ostAdjointSettings* as, const double* gq,   \
                            const double* gu);                                                    \

@@ -338,6 +338,10 @@ typedef struct ostGradOptions_ {  // what a backward pass computes
                                   //    pull-back of points, normals, distances), for long
                                   //    chaotic horizons; 0: complete (default)
   int params;                     // 1: also accumulate dL/dtheta (costs more)
+  int forward_only;               // 1: every input's derivatives by forward-mode passes (the
+                                  //    bits of a batch's backward pass); 0: those of the step's
+                                  //    start (q-, u-, act-, ctrl) by one reverse sweep (default,
+                                  //    faster; the same gradients to rounding)
 } ostGradOptions;
 
 // Default gradient options (complete pull-back, no parameters).

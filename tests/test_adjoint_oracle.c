@@ -25,6 +25,11 @@
 // that rounding (stiff kv = 300 servos and wheel contacts at h = 0.1 s): measured 1.7e-9 on the
 // pallet, 4e-10 or less on the other scenes.
 #define TOL_JAC 1e-9
+// TOL_REV: the default backward pass takes w' dR/dxi of the start's inputs by one reverse sweep,
+// the forward_only one by their columns: the same products summed in another order, so the
+// gradients differ by the rounding of the implicit-function solve that both share (TOL's
+// conditioning), far below TOL; a wrong partial derivative is of order 1.
+#define TOL_REV 1e-10
 #define TOL 1e-8
 
 static double uniform(unsigned* s) {
@@ -44,32 +49,42 @@ static double relDiff(const mjtNum* a, const mjtNum* b, int n, double floor) {
 }
 
 
-// one VJP of the last step with the split passes and with the oracle; the largest relative
-// difference over the groups (dq-, du-, ctrl, theta)
+// the largest relative difference of two VJPs over the groups (dq-, du-, ctrl, theta)
+static double groupsDiff(const mjtNum* a, const mjtNum* b, int nv, int nu, int np) {
+  double e[4] = {relDiff(a, b, nv, 1e-300), relDiff(a + nv, b + nv, nv, 1e-300),
+                 relDiff(a + 2 * nv, b + 2 * nv, nu, 1e-300),
+                 relDiff(a + 2 * nv + nu, b + 2 * nv + nu, np, 1e-300)};
+  return fmax(fmax(e[0], e[1]), fmax(e[2], e[3]));
+}
+
+
+// one VJP of the last step with the split passes and with the oracle; returns the largest
+// relative difference over the groups between the default (the start's inputs by a reverse
+// sweep) and the oracle, *rev the one between the default and the forward passes alone
 static double vjpDiff(const mjModel* m, mjData* d, int truncate, const mjtNum* gq,
-                      const mjtNum* gu) {
+                      const mjtNum* gu, double* rev) {
   ostContext* c = ost_context(m, d);
   int nv = m->nv, nu = m->nu, np = ost_nparam(m);
   size_t n = 2 * (size_t)nv + nu + np;
-  mjtNum* out = (mjtNum*)calloc(3 * n, sizeof(mjtNum));
-  ostGradOptions go = {truncate, 1};
-  // 0: the split passes, 1: the dense oracle, 2: the split passes shared by 3 threads (run one
-  // after another), which must give the bits of 0
-  for (int oracle = 0; oracle < 3; oracle++) {
-    mjtNum* o = out + oracle * n;
-    c->adj_oracle = oracle;
+  mjtNum* out = (mjtNum*)calloc(4 * n, sizeof(mjtNum));
+  ostGradOptions go = {truncate, 1, 0};
+  // 0: the split passes and the reverse sweep (the default), 1: the dense oracle, 2: the split
+  // passes shared by 3 threads (run one after another), 3: the split passes alone
+  // (forward_only), which must give the bits of 2
+  for (int k = 0; k < 4; k++) {
+    mjtNum* o = out + k * n;
+    c->adj_oracle = k < 3 ? k : 0;
+    go.forward_only = k == 3;
     int status = ost_adjoint(m, d, &go, gq, gu, o, o + nv, o + 2 * nv, o + 2 * nv + nu);
-    ck_assert_msg(status == OST_OK, "ost_adjoint (oracle %d): %s", oracle, ost_lastError(d));
+    ck_assert_msg(status == OST_OK, "ost_adjoint (variant %d): %s", k, ost_lastError(d));
   }
   c->adj_oracle = 0;
-  ck_assert_msg(!memcmp(out, out + 2 * n, n * sizeof(mjtNum)),
+  ck_assert_msg(!memcmp(out + 3 * n, out + 2 * n, n * sizeof(mjtNum)),
                 "the split passes give other bits when 3 threads share them");
-  double e[4] = {relDiff(out, out + n, nv, 1e-300), relDiff(out + nv, out + n + nv, nv, 1e-300),
-                 relDiff(out + 2 * nv, out + n + 2 * nv, nu, 1e-300),
-                 relDiff(out + 2 * nv + nu, out + n + 2 * nv + nu, np, 1e-300)};
-  e[0] = fmax(fmax(e[0], e[1]), fmax(e[2], e[3]));
+  *rev = groupsDiff(out, out + 3 * n, nv, nu, np);
+  double e = groupsDiff(out, out + n, nv, nu, np);
   free(out);
-  return e[0];
+  return e;
 }
 
 
@@ -97,7 +112,7 @@ static double transitionDiff(const mjModel* m, mjData* d) {
 // a rollout of nstep steps at h with controls ctrl (1 + 0.2 noise) from keyframe key (-1: none),
 // comparing every `every`-th step; returns the largest difference
 static double rollout(const mjModel* m, double h, int nstep, int every, double ctrl, int key,
-                      double* jac) {
+                      double* jac, double* rev_worst) {
   mjData* d = mj_makeData(m);
   if (key >= 0) {
     mj_resetDataKeyframe(m, d, key);
@@ -128,7 +143,9 @@ static double rollout(const mjModel* m, double h, int nstep, int every, double c
         double e;
         ck_assert_int_eq(ost_adjointOracleDiff(m, d, truncate, 1, &e), OST_OK);
         *jac = fmax(*jac, e);
-        worst = fmax(worst, vjpDiff(m, d, truncate, g, g + nv));
+        double rev;
+        worst = fmax(worst, vjpDiff(m, d, truncate, g, g + nv, &rev));
+        *rev_worst = fmax(*rev_worst, rev);
       }
       checked++;
     }
@@ -142,9 +159,12 @@ static double rollout(const mjModel* m, double h, int nstep, int every, double c
 
 static void check(const char* name, mjModel* m, double h, int nstep, int every, double ctrl,
                   int key) {
-  double jac = 0;
-  double e = rollout(m, h, nstep, every, ctrl, key, &jac);
-  printf("%-32s split vs oracle: Jacobian %.1e, gradients %.1e\n", name, jac, e);
+  double jac = 0, rev = 0;
+  double e = rollout(m, h, nstep, every, ctrl, key, &jac, &rev);
+  printf("%-32s split vs oracle: Jacobian %.1e, gradients %.1e; reverse vs forward %.1e\n",
+         name, jac, e, rev);
+  ck_assert_msg(rev <= TOL_REV, "%s: the reverse sweep's gradients differ from the forward "
+                "passes' by %.3g", name, rev);
   ck_assert_msg(jac <= TOL_JAC, "%s: the split Jacobian differs from the oracle's by %.3g", name,
                 jac);
   ck_assert_msg(e <= TOL, "%s: split gradients differ from the oracle's by %.3g", name, e);
@@ -235,7 +255,7 @@ START_TEST(test_chunkWidths) {
       for (int w = 0; w < 2; w++) {
         double* o = out[w];
         memset(o, 0, n * sizeof(double));
-        ostGradOptions go = {0, 1};
+        ostGradOptions go = {0, 1, 0};
         ck_assert_int_eq(ost_adjoint(m, d, &go, g, g + nv, o, o + nv, o + 2 * nv, o + 2 * nv + nu),
                          OST_OK);
         // next: the same with a work of 8 directions in place of the model's own (2)

@@ -93,7 +93,7 @@ static void tapeRun(const lib* L, const mjModel* m, double h, int n, double* out
     gq[i] = sin(0.7 * i);
     gu[i] = cos(0.4 * i);
   }
-  ostGradOptions go = {0, 1};
+  ostGradOptions go = {0, 1, 0};  // the reverse sweep (default) too must keep its bits
   memset(p, 0, ((size_t)n * nu + 2 * nv + L->nparam(m)) * sizeof(double));
   int s = L->tapeBackward(t, m, &go, gq, gu, p, p + n * nu, p + n * nu + nv, p + n * nu + 2 * nv);
   ck_assert_msg(s == OST_OK, "backward: %s", L->tapeError(t));

@@ -282,6 +282,7 @@ START_TEST(test_batchBackwardEqualsTape) {
   ostGradOptions go;
   ost_defaultGradOptions(&go);
   go.params = 1;
+  go.forward_only = 1;  // the tape takes the batch's path, so the bits must agree
   mjtNum *tth = calloc(nw * np, 8), *gth = calloc(nw * np, 8);
   mjtNum* q0 = calloc(nw * nq, sizeof(mjtNum));
   mjtNum* ctrl = calloc(T * nw * nu, sizeof(mjtNum));
@@ -441,7 +442,10 @@ START_TEST(test_batchBackwardRecordCapacity) {
     memcpy(d->ctrl, ctrl + t * nu, nu * sizeof(mjtNum));
     ck_assert_int_eq(ost_tapeStep(tape, m, d), OST_OK);
   }
-  ck_assert_int_eq(ost_tapeBackward(tape, m, NULL, gq, NULL, tc, tq0, tu0, NULL), OST_OK);
+  ostGradOptions fwd;
+  ost_defaultGradOptions(&fwd);
+  fwd.forward_only = 1;  // the batch's path, so the bits must agree
+  ck_assert_int_eq(ost_tapeBackward(tape, m, &fwd, gq, NULL, tc, tq0, tu0, NULL), OST_OK);
 
   char err[1000];
   ostBatch* b = ost_batchCreate(m, 1, "cpu:1", err, sizeof(err));
