@@ -6,6 +6,7 @@
 #ifndef OSTRICH_CORE_OST_ADJOINT_SPLIT_H_
 #define OSTRICH_CORE_OST_ADJOINT_SPLIT_H_
 
+#include "ost_adjoint_color.h"
 #include "ost_adjoint_work.h"
 
 // After the values pass (w->M holds Mt's factor, w->diag the rows' diagonal, the rows at q+):
@@ -170,6 +171,7 @@ OST_HD int ostx_jacColumnsSplit(ostJacWork* wk, const ostdStep* st, const double
     for (int i = 0; i < ny; i++) *r2 += wk->R[i].v * wk->R[i].v;
   }
   int npair = ostx_rowSolves(wk, nrow);
+  int ncolor = ostx_colorDofs(wk, nrow);
   for (int i = 0; i < nv; i++) wk->Rdyn0[i] = wk->R[i].v;
 
 #define OSTX_CEIL(n) (((n) + C - 1) / C)
@@ -177,7 +179,7 @@ OST_HD int ostx_jacColumnsSplit(ostJacWork* wk, const ostdStep* st, const double
   for (int i_ = 0; i_ < ny; i_++) G[(size_t)i_ * ncol + (c)] = wk->R[i_].d[k]
   enum { Y, UM, AC, DQ, TH, GEO, TT, NKIND };
   int nunit[NKIND] = {OSTX_CEIL(ny), OSTX_CEIL(nv), OSTX_CEIL(na + nu), OSTX_CEIL(nv),
-                      OSTX_CEIL(np), OSTX_CEIL(nv), OSTX_CEIL(2 * nv)};
+                      OSTX_CEIL(np), OSTX_CEIL(ncolor), OSTX_CEIL(2 * nv)};
   int ju_seeded = 0;  // w->Ju holds derivatives by u (a Y unit's), so J u must be made again
   for (int kind = 0, first = 0; kind < NKIND; first += nunit[kind++]) {
     for (int unit = first + ((t - first) % nt + nt) % nt; unit < first + nunit[kind]; unit += nt) {
@@ -298,7 +300,10 @@ OST_HD int ostx_jacColumnsSplit(ostJacWork* wk, const ostdStep* st, const double
       }
       case GEO: {  // the rows at q+ (+) delta (delta in dq-'s storage), the start held
         for (int i = 0; i < nq; i++) wk->qplus[i] = wk->qref[i];
-        for (int k = 0; k < C && c0 + k < nv; k++) wk->dqm[c0 + k].d[k] = 1;
+        for (int l = 0; l < nv; l++) {  // the dofs of the unit's colours (eq. 15c)
+          int k = wk->color[l] - c0;
+          if (k >= 0 && k < C) wk->dqm[l].d[k] = 1;
+        }
         osti_integratePos(m, wk->qplus, wk->dqm, 1);
         wk->k.pair_only = wk->pairs;
         wk->k.npair_only = npair;
@@ -313,10 +318,8 @@ OST_HD int ostx_jacColumnsSplit(ostJacWork* wk, const ostdStep* st, const double
         }
         for (int i = 0; i < nv; i++) w->qfrc_explicit[i] = wk->f0[i];
         ostx_residualAtValues(wk, st, wk->M0, 1, 0);
-        for (int k = 0; k < C && c0 + k < nv; k++) {
-          for (int i = 0; i < ny; i++) Rq[(size_t)i * nv + c0 + k] = wk->R[i].d[k];
-          wk->dqm[c0 + k] = 0;
-        }
+        ostx_colorColumns(wk, nrow, c0, Rq);
+        for (int l = 0; l < nv; l++) wk->dqm[l] = 0;
         break;
       }
       default: {  // TT: the exponential maps alone

@@ -38,6 +38,8 @@ typedef struct ostJacWork_ {      // the dual evaluation's state: pointers into 
                                   // at the values (ostx_rowSolves)
   double*   Rdyn0;                // the dynamics rows' values (nv)
   int*      pairs;                // the pairs in contact at the values (npair), ascending
+  int*      color;                // the dR/dq+ directions' colors (nv; ostx_colorDofs), then
+  int*      subtree;              // each dof's subtree size (nv) and the colors' marks (nv)
   ostRow*   rec;                  // the recorded rows as dual rows (matching keys)
   ostNum*   rec_lambda;           // their multipliers
   unsigned char* used;            // matching scratch
@@ -76,7 +78,7 @@ OST_HD size_t ostx_jacWorkSize(ostSizes s, int nrow_max) {
          + OST_ALIGN64(ostx_jacDoubles(s, nrow_max) * sizeof(double))
          + OST_ALIGN64((size_t)nrow_max * sizeof(ostRow)) + OST_ALIGN64((size_t)nrow_max)
          + OST_ALIGN64(sizeof(ostModel)) + OST_ALIGN64(ostx_jacParamVectors(s) * sizeof(ostNum))
-         + OST_ALIGN64((size_t)s.npair * sizeof(int));
+         + OST_ALIGN64(((size_t)s.npair + 3 * (size_t)s.nv) * sizeof(int));
 }
 
 
@@ -110,6 +112,8 @@ OST_HD void ostx_jacWorkInit(ostJacWork* wk, void* block, ostModel* m, int nrow_
   wk->own_param = (ostNum*)p;
   p += OST_ALIGN64(ostx_jacParamVectors(s) * sizeof(ostNum));
   wk->pairs = (int*)p;
+  wk->color = wk->pairs + s.npair;
+  wk->subtree = wk->color + s.nv;
   wk->qpos = v;   v += s.nq;
   wk->qplus = v;  v += s.nq;
   wk->qref = v;   v += s.nq;
