@@ -16,7 +16,7 @@
 #include "../core/ost_activation.h"
 #include "../core/ost_rows_native.h"
 
-thread_local ostRevTape* ostr_tape __attribute__((tls_model("initial-exec"))) = NULL;
+thread_local ostRevTape* ostr_tape = NULL;
 
 namespace {
 

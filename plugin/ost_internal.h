@@ -148,6 +148,8 @@ typedef struct ostContext_ {
   size_t         rec_cap;         // capacity of rec_buf in bytes
   void*          adj_work;        // dual-number work block of the adjoint
   void*          adj_rev;         // reverse-mode work of the adjoint (ost_adjoint_rev.h)
+  int            adj_reverse_all; // 1: the reverse sweep for every model (tests); 0: where it
+                                  // replaces OST_REVERSE_MIN directions or more
   int            adj_oracle;      // 1: the dense dual Jacobian per record (tests' oracle),
                                   // 0: the split passes (ostx_jacColumnsSplit, the default),
                                   // 2: the split passes as 3 threads in turn (tests)

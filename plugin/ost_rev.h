@@ -35,10 +35,10 @@ struct ostRevTape {               // the nodes of one evaluation (structure of a
 };
 
 // the tape the current thread's operations append to (NULL: none; every result is a constant).
-// Initial-exec: one load from the thread pointer per operation instead of a call to
-// __tls_get_addr (the library's static TLS is one pointer, within what dlopen allows).
+// The default TLS model: initial-exec would save a call per operation, but a library loaded by
+// dlopen (Python) may then find no static TLS block left, and fail to load.
 #define OST_REV_INLINE inline __attribute__((always_inline))
-extern thread_local ostRevTape* ostr_tape __attribute__((tls_model("initial-exec")));
+extern thread_local ostRevTape* ostr_tape;
 
 // a node with operands (a, da) and (b, db); 0 when neither operand is a variable
 OST_REV_INLINE int ostr_node(int a, double da, int b, double db) {

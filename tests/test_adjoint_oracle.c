@@ -68,6 +68,7 @@ static double vjpDiff(const mjModel* m, mjData* d, int truncate, const mjtNum* g
   size_t n = 2 * (size_t)nv + nu + np;
   mjtNum* out = (mjtNum*)calloc(4 * n, sizeof(mjtNum));
   ostGradOptions go = {truncate, 1, 0};
+  c->adj_reverse_all = 1;  // the reverse sweep on the small models too
   // 0: the split passes and the reverse sweep (the default), 1: the dense oracle, 2: the split
   // passes shared by 3 threads (run one after another), 3: the split passes alone
   // (forward_only), which must give the bits of 2
@@ -79,6 +80,7 @@ static double vjpDiff(const mjModel* m, mjData* d, int truncate, const mjtNum* g
     ck_assert_msg(status == OST_OK, "ost_adjoint (variant %d): %s", k, ost_lastError(d));
   }
   c->adj_oracle = 0;
+  c->adj_reverse_all = 0;
   ck_assert_msg(!memcmp(out + 3 * n, out + 2 * n, n * sizeof(mjtNum)),
                 "the split passes give other bits when 3 threads share them");
   *rev = groupsDiff(out, out + 3 * n, nv, nu, np);
