@@ -493,9 +493,18 @@ OST_HD void osti_jacAssemble(double* G, int ncol, int ny, int nv, int na, int nu
                              const double* T) {
   for (int c = 0; c < 2 * nv; c++) {
     int col = c < nv ? c : ny + c - nv;
-    for (int i = 0; i < ny; i++) {
+    // T is block diagonal by joint (the exponential maps): a column's few non-zero entries,
+    // summed in the order of the dense product (the zero terms it would add are exact)
+    int j0 = nv, j1 = -1;
+    for (int j = 0; j < nv; j++) {
+      if (T[(size_t)j * 2 * nv + c] != 0) {
+        j0 = j < j0 ? j : j0;
+        j1 = j;
+      }
+    }
+    for (int i = 0; i < ny && j1 >= 0; i++) {
       double s = 0;
-      for (int j = 0; j < nv; j++) s += Rq[(size_t)i * nv + j] * T[(size_t)j * 2 * nv + c];
+      for (int j = j0; j <= j1; j++) s += Rq[(size_t)i * nv + j] * T[(size_t)j * 2 * nv + c];
       G[(size_t)i * ncol + col] += s;
     }
   }
