@@ -225,6 +225,11 @@ extern "C" void* ostr_workCreate(const void* model, int nrow_max) {
 }
 
 
+extern "C" int ostr_reserve(void* work, int cap) {
+  return allocTape((Work*)work, cap > 2 ? cap : 2);
+}
+
+
 extern "C" void ostr_staging(void* work, void** rows, double** J, double** lam,
                              double** length) {
   Work* wk = (Work*)work;

@@ -19,6 +19,10 @@ void* ostr_workCreate(const void* model, int nrow_max);
 // Release a work (NULL is ignored).
 void ostr_workFree(void* work);
 
+// A tape of cap nodes in place of the work's (it still grows as a step needs; for the tests of
+// that growth). Returns 0, 1 out of memory.
+int ostr_reserve(void* work, int cap);
+
 // The work's staging arrays for ostd_stepValues (row capacity nrow_max): the rows at q+ (ostRow
 // of the double build), their Jacobian (nrow_max x nv), the multipliers matched onto them and
 // the actuators' lengths at q+ (nu).

@@ -13,6 +13,7 @@
 
 #include "fixture.h"
 #include "ost_adjoint_dual.h"
+#include "ost_adjoint_rev.h"
 #include "ost_internal.h"
 
 // TOL_JAC: per column, relative to its largest entry. The split passes sum the same derivatives
@@ -66,16 +67,20 @@ static double vjpDiff(const mjModel* m, mjData* d, int truncate, const mjtNum* g
   ostContext* c = ost_context(m, d);
   int nv = m->nv, nu = m->nu, np = ost_nparam(m);
   size_t n = 2 * (size_t)nv + nu + np;
-  mjtNum* out = (mjtNum*)calloc(4 * n, sizeof(mjtNum));
+  mjtNum* out = (mjtNum*)calloc(5 * n, sizeof(mjtNum));
   ostGradOptions go = {truncate, 1, 0};
   c->adj_reverse_all = 1;  // the reverse sweep on the small models too
   // 0: the split passes and the reverse sweep (the default), 1: the dense oracle, 2: the split
   // passes shared by 3 threads (run one after another), 3: the split passes alone
-  // (forward_only), which must give the bits of 2
-  for (int k = 0; k < 4; k++) {
+  // (forward_only), which must give the bits of 2; 4: 0 again from a reverse tape of 16 nodes,
+  // which must grow to the step's and give the bits of 0
+  for (int k = 0; k < 5; k++) {
     mjtNum* o = out + k * n;
     c->adj_oracle = k < 3 ? k : 0;
     go.forward_only = k == 3;
+    if (k == 4) {
+      ck_assert_int_eq(ostr_reserve(c->adj_rev, 16), 0);
+    }
     int status = ost_adjoint(m, d, &go, gq, gu, o, o + nv, o + 2 * nv, o + 2 * nv + nu);
     ck_assert_msg(status == OST_OK, "ost_adjoint (variant %d): %s", k, ost_lastError(d));
   }
@@ -83,6 +88,8 @@ static double vjpDiff(const mjModel* m, mjData* d, int truncate, const mjtNum* g
   c->adj_reverse_all = 0;
   ck_assert_msg(!memcmp(out + 3 * n, out + 2 * n, n * sizeof(mjtNum)),
                 "the split passes give other bits when 3 threads share them");
+  ck_assert_msg(!memcmp(out + 4 * n, out, n * sizeof(mjtNum)),
+                "the reverse sweep gives other bits after its tape grew");
   *rev = groupsDiff(out, out + 3 * n, nv, nu, np);
   double e = groupsDiff(out, out + n, nv, nu, np);
   free(out);
