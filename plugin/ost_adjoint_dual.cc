@@ -37,16 +37,6 @@ struct Work {                     // a dual model and the evaluation's block
   ostJacWork jw;
 };
 
-// 64-byte aligned, zeroed block of sz bytes
-void* alignedZero(size_t sz) {
-  sz = (sz + 63) / 64 * 64;
-  void* p = aligned_alloc(64, sz ? sz : 64);
-  if (p) {
-    memset(p, 0, sz);
-  }
-  return p;
-}
-
 }  // namespace
 
 
@@ -68,8 +58,8 @@ extern "C" void* OSTD(_workCreate)(const void* model, int nrow_max) {
     return NULL;
   }
   wk->chunk = OSTX_CHUNK;
-  wk->m_block = alignedZero(ostx_dualModelSize(src->s));
-  wk->block = alignedZero(ostx_jacWorkSize(src->s, nrow_max));
+  wk->m_block = ostd_alignedZero(ostx_dualModelSize(src->s));
+  wk->block = ostd_alignedZero(ostx_jacWorkSize(src->s, nrow_max));
   if (!wk->m_block || !wk->block) {
     OSTD(_workFree)(wk);
     return NULL;
@@ -142,6 +132,15 @@ static int chunkFor(const void* model) {
 
 static int chunkOf(const void* work) {
   return *(const int*)work;
+}
+
+extern "C" void* ostd_alignedZero(size_t sz) {
+  sz = (sz + 63) / 64 * 64;
+  void* p = aligned_alloc(64, sz ? sz : 64);
+  if (p) {
+    memset(p, 0, sz);
+  }
+  return p;
 }
 
 // the entry point P of a work's (or a model's) chunk, called with args

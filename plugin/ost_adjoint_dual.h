@@ -17,6 +17,10 @@ extern "C" {
 
 // ostdStep (one committed substep) is core's, core/ost_adjoint.h
 
+// A 64-byte aligned, zeroed block of sz bytes (free() releases it; NULL if allocation fails), for
+// the dual and reverse works.
+void* ostd_alignedZero(size_t sz);
+
 // Work block of the dual evaluation for a packed model with row capacity nrow_max (NULL if
 // allocation fails).
 void* ostd_workCreate(const void* model, int nrow_max);

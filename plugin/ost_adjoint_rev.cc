@@ -12,6 +12,7 @@
 
 #define OST_NUM_TYPE ostRev
 
+#include "ost_adjoint_dual.h"  // ostd_alignedZero
 #include "ost_adjoint_rev.h"
 #include "../core/ost_activation.h"
 #include "../core/ost_rows_native.h"
@@ -37,15 +38,6 @@ struct Work {
   ostRevTape tape;
   double*    adj;                 // tape.cap
 };
-
-void* alignedZero(size_t sz) {
-  sz = (sz + 63) / 64 * 64;
-  void* p = aligned_alloc(64, sz ? sz : 64);
-  if (p) {
-    memset(p, 0, sz);
-  }
-  return p;
-}
 
 void freeTape(Work* wk) {
   free(wk->tape.a);
@@ -143,17 +135,6 @@ int evaluate(Work* wk, const ostdStep* st, int nrow, const double* diag0) {
   return first;
 }
 
-void sweepRange(const ostRevTape* t, double* adj, int from, int to) {
-  for (int i = from - 1; i >= to; i--) {
-    double g = adj[i];
-    if (g == 0) {
-      continue;
-    }
-    adj[t->a[i]] += t->da[i] * g;
-    adj[t->b[i]] += t->db[i] * g;
-  }
-}
-
 }  // namespace
 
 
@@ -177,12 +158,12 @@ extern "C" void* ostr_workCreate(const void* model, int nrow_max) {
     return NULL;
   }
   size_t nvec = (size_t)s.nq + 5 * (size_t)s.nv + 6 * (size_t)s.nbody + 2 * (size_t)nrow_max
-                + s.nv + 2 * (size_t)s.nu + 2 * (size_t)s.na;
+                + 2 * (size_t)s.nu + 2 * (size_t)s.na;
   size_t nint = 2 * (size_t)s.nv + s.na + s.nu + nrow_max;
   size_t nstage = (size_t)nrow_max * (s.nv + 1) + s.nu;  // doubles
   size_t kin = ostu_kinSize(s), world = ostu_worldSizeFor(s.nv, s.nv, nrow_max, 0);
-  wk->m_block = alignedZero(ostx_dualModelSize(s));
-  wk->block = alignedZero(2 * kin + world + OST_ALIGN64(nvec * sizeof(ostRev))
+  wk->m_block = ostd_alignedZero(ostx_dualModelSize(s));
+  wk->block = ostd_alignedZero(2 * kin + world + OST_ALIGN64(nvec * sizeof(ostRev))
                           + OST_ALIGN64(nint * sizeof(int))
                           + OST_ALIGN64((size_t)nrow_max * sizeof(ostRowDouble))
                           + OST_ALIGN64(nstage * sizeof(double)));
@@ -207,7 +188,7 @@ extern "C" void* ostr_workCreate(const void* model, int nrow_max) {
   wk->qfrc = v;     v += s.nv;
   wk->xfrc = v;     v += 6 * (size_t)s.nbody;
   wk->lambda = v;   v += nrow_max;
-  wk->R = v;        v += s.nv + (size_t)nrow_max + s.nv;
+  wk->R = v;        v += s.nv + (size_t)nrow_max;
   wk->ctrl = v;     v += s.nu;
   wk->input = v;    v += s.nu;
   wk->act = v;      v += s.na;
@@ -273,7 +254,7 @@ extern "C" int ostr_startVjp(void* work, const ostdStep* st, int nrow, const dou
 
   // the rows' part, then each diagonal's pull on Mt, d(J_i Mt^-1 J_i') = -x_i' dMt x_i (15b),
   // on Mt's lower triangle over each dof's ancestors (as the tree factor reads it), then the rest
-  sweepRange(t, adj, t->n, first);
+  ostr_sweep(t, adj, t->n, first);
   const ostRev* Mt = wk->w.M;
   const int* par = wk->w.dof_parent;
   for (int i = 0; i < nrow; i++) {
@@ -291,7 +272,7 @@ extern "C" int ostr_startVjp(void* work, const ostdStep* st, int nrow, const dou
     }
   }
   adj[0] = 0;
-  sweepRange(t, adj, first, 1);
+  ostr_sweep(t, adj, first, 1);
   for (int i = 0; i < 2 * nv + na + nu; i++) {
     out[i] = wk->in[i] ? adj[wk->in[i]] : 0;
   }

@@ -196,15 +196,15 @@ inline ostRev ostr_input(double v) {
 }
 
 
-// the chain rule backward: adj (tape->n, zeroed by the caller, adj[y] = dL/dy seeded) receives
-// dL/dnode for every node
-inline void ostr_sweep(const ostRevTape* t, double* adj) {
-  for (int i = t->n - 1; i > 0; i--) {
+// the chain rule backward over the nodes [to, from), last first: adj (tape->n; adj[y] = dL/dy
+// seeded, the rest zero) receives dL/dnode for each node (node 0, the constants', is not swept)
+inline void ostr_sweep(const ostRevTape* t, double* adj, int from, int to) {
+  for (int i = from - 1; i >= to && i > 0; i--) {
     double g = adj[i];
     if (g == 0) {
       continue;
     }
-    adj[t->a[i]] += t->da[i] * g;  // node 0 collects the constants' share, unused
+    adj[t->a[i]] += t->da[i] * g;
     adj[t->b[i]] += t->db[i] * g;
   }
 }
