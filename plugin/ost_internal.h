@@ -66,6 +66,8 @@ typedef struct ostCollisionCache_ {  // the iterates' collision (ost_collision_m
   long      builds;  // lists built (tests)
   long      uses;    // collisions from a list (tests)
   long      uses_at_build;  // uses when the current list was built
+  int       skip_core;  // 1: pairs that core collides (ost_corePair) are left out, as their
+                        // MuJoCo contacts would only be replaced (ost_rowsMujoco, publication)
 } ostCollisionCache;
 
 typedef struct ostContext_ {

@@ -457,7 +457,7 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
   // contact rows: normal then two tangents in the contact frame (frame[0:3] from geom1 to
   // geom2, so J_n u > 0 separates); contacts within the look-ahead distance are candidates.
   // Core pairs (cylinder-box, height field-cylinder, plane-mesh, plane-cylinder, box-box) are
-  // replaced by core's contacts (below)
+  // replaced by core's contacts (below); the collision leaves them out (skip_core)
   int status;
   for (int i = 0; i < d->ncon; i++) {
     const mjContact* con = d->contact + i;

@@ -126,6 +126,7 @@ static int prepareSynced(ostContext* c, const mjModel* m, int changed) {
   }
   ost_setMargins(c->mo, m, c->opt.margin);
   ost_collisionReset(&c->col);
+  c->col.skip_core = 1;  // the rows replace MuJoCo's contacts of core pairs (ost_rowsMujoco)
   if (c->opt.geometry == OST_GEOMETRY_NATIVE) {
     status = ost_nativeReady(c, m);
   } else if (ost_packCorePairs(c->mo, &c->corepairs, &c->corepairs_block)
