@@ -624,7 +624,7 @@ static double synth_stateLoss(const synthEngine* e, const synthTask* task, const
 // Set d to the task's start: chassis at (x, y, qpos0 z) with yaw, every joint and velocity 0.
 static void synth_start(const synthEngine* e, const synthTask* task) {
   mjData* d = e->d;
-  mj_resetData(e->m, d);
+  cli_resetState(e->m, d);
   d->qpos[0] = task->start[0];
   d->qpos[1] = task->start[1];
   d->qpos[3] = cos(0.5 * task->start[2]);

@@ -413,7 +413,7 @@ double ter_stateLoss(const terEngine* e, const mjtNum* qs, mjtNum* gqs, double* 
 int ter_rollout(terEngine* e, const double* knots, mjtNum* qs, mjtNum* vs) {
   const mjModel* m = e->m;
   mjData* d = e->d;
-  mj_resetData(m, d);
+  cli_resetState(m, d);
   if (e->ostrich) {
     ost_tapeClear(e->tape);
   }

@@ -555,6 +555,27 @@ int cli_checkKey(const mjModel* m, long key) {
 }
 
 
+void cli_resetState(const mjModel* m, mjData* d) {
+  d->time = 0;
+  mju_copy(d->qpos, m->qpos0, m->nq);
+  mju_zero(d->qvel, m->nv);
+  mju_zero(d->act, m->na);
+  mju_zero(d->ctrl, m->nu);
+  mju_zero(d->qfrc_applied, m->nv);
+  mju_zero(d->xfrc_applied, 6 * m->nbody);
+  mju_zero(d->qacc_warmstart, m->nv);
+  mju_zero(d->qacc, m->nv);
+  for (int b = 0; b < m->nbody; b++) {
+    int k = m->body_mocapid[b];
+    if (k >= 0) {
+      mju_copy3(d->mocap_pos + 3 * k, m->body_pos + 3 * b);
+      mju_copy4(d->mocap_quat + 4 * k, m->body_quat + 4 * b);
+    }
+  }
+  memset(d->warning, 0, sizeof(d->warning));
+}
+
+
 void cli_resetStart(const mjModel* m, mjData* d, long key) {
   mj_resetData(m, d);
   if (key != CLI_KEY_NONE) {
