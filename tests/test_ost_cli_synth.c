@@ -210,6 +210,60 @@ static double* meshWorld(const terEngine* e) {
 }
 
 
+// cli_resetState: an Ostrich rollout (tape and adjoint) from the state that the rollout of other
+// knots left behind equals, bit for bit, the same rollout after mj_resetData (which clears MuJoCo's
+// whole buffer): sampled states, the backward pass's control gradient and the tape's cotangents
+START_TEST(test_rolloutReset) {
+  ost_fixtureSetup();
+  synthArgs a = {.trials = 1, .iters = 1, .seed = 1, .lr = 0.3, .engine = "ostrich",
+                 .model = OST_MODEL_DIR "/robot_box.xml", .fd = "forward", .eps = 0.1,
+                 .grad = "complete"};
+  synthEngine e;
+  ck_assert_msg(!synth_engineSetup(&e, "ostrich", &a), "cannot set up the engine on %s",
+                a.model);
+  const mjModel* m = e.m;
+  int bad = 0, ns = e.nsample + 1;
+  synthTask task = {{0.1, -0.1, 0.15}, {3, 0.2, -0.25}};
+  double* knots = (double*)synth_alloc((size_t)e.nvar, sizeof(double), &bad);
+  double* other = (double*)synth_alloc((size_t)e.nvar, sizeof(double), &bad);
+  double* g[2];
+  mjtNum* qs[2];
+  for (int r = 0; r < 2; r++) {
+    g[r] = (double*)synth_alloc((size_t)e.nvar, sizeof(double), &bad);
+    qs[r] = (mjtNum*)synth_alloc((size_t)ns * (m->nq + m->nv), sizeof(mjtNum), &bad);
+  }
+  ck_assert_msg(!bad, "out of memory");
+  for (int i = 0; i < e.nvar; i++) {
+    knots[i] = i % 10 == 9 ? 0 : 1.5;  // over the box at 1.5 rad/s: the optimizer's start
+    other[i] = i % 10 == 9 ? 0 : 1.0;
+  }
+  for (int r = 0; r < 2; r++) {
+    // leave the data dirty: the other knots' rollout, a contact-rich state and MuJoCo arrays
+    ck_assert_int_eq(synth_rollout(&e, &task, other, e.qs, e.vs), SYNTH_OK);
+    if (r == 1) {
+      mj_resetData(m, e.d);  // the reference: the whole buffer cleared (synth_start resets too)
+    }
+    synthEval ev;
+    int status = synth_gradAdjoint(&e, &task, knots, &ev, g[r]);
+    ck_assert_msg(status == SYNTH_OK, "rollout %d: %s", r, e.why);
+    memcpy(qs[r], e.qs, (size_t)ns * m->nq * sizeof(mjtNum));
+    memcpy(qs[r] + (size_t)ns * m->nq, e.vs, (size_t)ns * m->nv * sizeof(mjtNum));
+  }
+  ck_assert_msg(!memcmp(qs[0], qs[1], (size_t)ns * (m->nq + m->nv) * sizeof(mjtNum)),
+                "the sampled states differ after cli_resetState");
+  ck_assert_msg(!memcmp(g[0], g[1], (size_t)e.nvar * sizeof(double)),
+                "the knot gradients differ after cli_resetState");
+  for (int r = 0; r < 2; r++) {
+    free(g[r]);
+    free(qs[r]);
+  }
+  free(knots);
+  free(other);
+  synth_engineFree(&e);
+}
+END_TEST
+
+
 START_TEST(test_terrainSurface) {
   ost_fixtureSetup();
   synthArgs a = terrainArgs();
@@ -381,6 +435,7 @@ static Suite* suite(void) {
   Suite* s = suite_create("ost_cli_synth");
   TCase* tc = tcase_create("loss");
   tcase_add_test(tc, test_lossDerivatives);
+  tcase_add_test(tc, test_rolloutReset);
   suite_add_tcase(s, tc);
   TCase* tt = tcase_create("terrain");
   tcase_set_timeout(tt, 60);
