@@ -388,7 +388,6 @@ OST_HD void osti_matchRowsSorted(ostNum* lambda, const ostRow* rows, int nrow,
 }
 
 
-
 #ifdef __cplusplus
 }
 #endif
