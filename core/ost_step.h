@@ -43,7 +43,8 @@ typedef struct ostNewtonStats_ {  // one Newton loop's outcome
   int    nonfinite;               // 1 if an iterate's merit was not finite
   int    relaxed;                 // 1 if violations at q- were kept in part (osti_relaxStart)
   int    retry;                   // 1 if this loop was the step driver's cold retry of a loop
-                                  // that failed from its warm start (osti_stepDriven)
+                                  // that failed from its warm start, 2 its geometric retry
+                                  // (osti_stepDriven); 0 otherwise
   ostNum first;                   // merit of iterate 0 (m/s)
   ostNum best_merit;              // merit of the returned iterate (m/s)
   ostNum initial_violation;       // deepest violation at q- when relaxed (m or rad), else 0
@@ -480,6 +481,13 @@ OST_HD int osti_newton(ostWorld* w, const ostSolverOptions* so, int linesearch, 
 
 //---------------------------------- A whole step on core's geometry -------------------------------
 
+// a failed loop whose best iterate is among its last this many was still improving: the step
+// driver's geometric retry is for such loops (osti_stepDriven)
+#define OST_GEO_RETRY_LATE 3
+// Newton budget of a geometric retry at most (with the terms Newton converges in 10-25 iterates
+// where the retry succeeds: MuJoCo's rope and loop samples)
+#define OST_GEO_RETRY_ITER 32
+
 // deepest step splitting osti_stepNative supports (ostOptions.split_depth is at most 10)
 #define OST_SPLIT_MAX 10
 
@@ -610,11 +618,15 @@ typedef struct ostStepDriver_ {   // the caller's part of a step (osti_stepDrive
 // is redone from its start as two half steps, up to split_depth levels, depth first (a stack of
 // depths; both halves of a split have the same depth). Cold retry (set->cold_retry): a loop that
 // failed from a warm start (u- + h qacc_warm != u-, or carried multipliers) is first redone once
-// at the same h from u- with no carried multipliers; only if that fails too is the substep split.
-// At the deepest level the better of the two loops is committed (the warm one run again if it
-// was better: loops are deterministic). Once a cold retry has failed, the step's trouble is not
-// its warm start: its remaining substeps split without retrying, so a step pays at most one
-// failed retry. Converging loops never take these paths, so their bits do not depend on them.
+// at the same h from u- with no carried multipliers. Geometric retry (w->geo->retry_on, option
+// geometric_retry; host only): a loop that failed while still improving, not redone cold or
+// whose cold retry failed too, is redone once more from u- with the geometric terms T and R
+// over all rows from its first iterate (ost_geometric.h). Only if these fail too is the
+// substep split. At the deepest level the best of its loops is committed (run again if it was
+// not the last: loops are deterministic). Once a retry of a kind has failed, the step's trouble
+// is not what that retry mends: its remaining substeps do not retry that way, so a step pays at
+// most one failed retry of each kind. Converging loops never take these paths, so their bits do
+// not depend on them.
 // Returns OST_STEP_* bits; on a failure bit the state is undefined (the caller restores it) and
 // *status holds the callbacks' or Newton's nonzero status (OST_NEWTON_NONFINITE included; 0 for
 // a factor failure). *substeps and *worst get the substeps committed and their largest best
@@ -622,17 +634,25 @@ typedef struct ostStepDriver_ {   // the caller's part of a step (osti_stepDrive
 OST_HD int osti_stepDriven(ostWorld* w, int nq, ostNum* qpos, ostNum* qpos_prev, ostNum* qvel,
                            ostNum* qacc_warm, int* warm, const ostStepSettings* set,
                            const ostStepDriver* drv, int* substeps, ostNum* worst, int* status) {
-  // the stack's entries: 4 depth + the kind of loop, one of
-  enum { OST_LOOP_WARM = 0, OST_LOOP_COLD = 1, OST_LOOP_WARM_AGAIN = 2 };
+  // the stack's entries: 8 depth + the kind of loop (OST_LOOP_AGAIN: the substep's best failed
+  // loop run again, to be committed as it is)
+  enum { OST_LOOP_WARM = 0, OST_LOOP_COLD = 1, OST_LOOP_GEO = 2, OST_LOOP_AGAIN = 4 };
   int nv = w->nv, stack[OST_SPLIT_MAX + 2], top = 0, bits = 0;
-  ostNum warm_merit = 0;  // best merit of the failed warm loop that a cold retry redoes
+  ostNum sub_merit = 0;   // best merit of the substep's failed loops so far
+  int sub_kind = 0;       // and the kind of the loop that reached it
   int retry_failed = 0;   // 1 once a cold retry of this step failed
+  int geo_failed = 0;     // 1 once a geometric retry of this step failed
+  int geo_retry = 0;      // 1: the world can retry with the geometric terms (ost_geometric.h)
+#if OST_GEO_HOST
+  geo_retry = w->geo && w->geo->retry_on;
+#endif
   *substeps = 0;
   *worst = 0;
   *status = 0;
-  stack[top++] = 4 * 0 + OST_LOOP_WARM;
+  stack[top++] = 8 * 0 + OST_LOOP_WARM;
   while (top > 0) {
-    int depth = stack[top - 1] / 4, kind = stack[top - 1] % 4;
+    int depth = stack[top - 1] / 8, kind = stack[top - 1] % 8;
+    int loop = kind & 3, again = kind & OST_LOOP_AGAIN;
     top--;
     ostNum h = set->h;
     for (int d = 0; d < depth; d++) h *= 0.5;
@@ -647,18 +667,28 @@ OST_HD int osti_stepDriven(ostWorld* w, int nq, ostNum* qpos, ostNum* qpos_prev,
     if (osti_factorMass(w)) {
       return bits | OST_STEP_CHOL_FAIL;
     }
-    // u starts from u- + h qacc_warm, the multipliers from the last result if warm; a cold
-    // retry starts from u- without multipliers. started_warm: a cold start would differ
-    int cold = kind == OST_LOOP_COLD, started_warm = *warm && set->warmstart && w->nrow_warm > 0;
+    // u starts from u- + h qacc_warm, the multipliers from the last result if warm; a retry
+    // starts from u- without multipliers. started_warm: a cold start would differ
+    int cold = loop != OST_LOOP_WARM, started_warm = *warm && set->warmstart && w->nrow_warm > 0;
     for (int j = 0; j < nv; j++) {
       w->tmp[j] = qvel[j] + (cold ? 0 : h * qacc_warm[j]);
       started_warm |= w->tmp[j] != qvel[j];
     }
     osti_startStep(w, w->tmp, !cold && *warm && set->warmstart);
     ostNewtonStats st;
-    *status = osti_newton(w, &set->so, set->linesearch, drv->geometry, drv->ctx, drv->merit_k,
+#if OST_GEO_HOST
+    if (w->geo) w->geo->retry = loop == OST_LOOP_GEO;
+#endif
+    ostSolverOptions so = set->so;
+    if (loop == OST_LOOP_GEO && so.newton_iter > OST_GEO_RETRY_ITER) {
+      so.newton_iter = OST_GEO_RETRY_ITER;  // a bound on the retry's cost; it converges fast
+    }
+    *status = osti_newton(w, &so, set->linesearch, drv->geometry, drv->ctx, drv->merit_k,
                           drv->nrow_k, drv->nk, &st);
-    st.retry = cold;
+#if OST_GEO_HOST
+    if (w->geo) w->geo->retry = 0;
+#endif
+    st.retry = again ? 0 : loop;
     if (drv->newton) {
       *status = drv->newton(drv->ctx, &st, *status);
     }
@@ -666,27 +696,46 @@ OST_HD int osti_stepDriven(ostWorld* w, int nq, ostNum* qpos, ostNum* qpos_prev,
       return bits | drv->failBits(*status);
     }
     int failed = st.best_merit > set->split_tol;
-    retry_failed |= failed && cold;
-    if (failed && kind == OST_LOOP_WARM && started_warm && set->cold_retry && !retry_failed) {
-      // a warm start can put Newton in a cycle (a contact's friction alternating between
-      // sticking and sliding iterates) that a cold start avoids: redo this substep once cold
-      for (int i = 0; i < nq; i++) qpos[i] = qpos_prev[i];
-      warm_merit = st.best_merit;
-      stack[top++] = 4 * depth + OST_LOOP_COLD;
-      continue;
-    }
-    if (failed && depth < set->split_depth) {
-      // redo from this substep's start as two halves
-      for (int i = 0; i < nq; i++) qpos[i] = qpos_prev[i];
-      stack[top++] = 4 * (depth + 1) + OST_LOOP_WARM;
-      stack[top++] = 4 * (depth + 1) + OST_LOOP_WARM;
-      continue;
-    }
-    if (failed && kind == OST_LOOP_COLD && !(st.best_merit < warm_merit)) {
-      // the deepest level's cold retry did no better: run the warm loop again and commit it
-      for (int i = 0; i < nq; i++) qpos[i] = qpos_prev[i];
-      stack[top++] = 4 * depth + OST_LOOP_WARM_AGAIN;
-      continue;
+    if (failed && !again) {
+      if (loop == OST_LOOP_WARM || st.best_merit < sub_merit) {
+        sub_merit = st.best_merit;
+        sub_kind = loop;
+      }
+      retry_failed |= loop == OST_LOOP_COLD;
+      geo_failed |= loop == OST_LOOP_GEO;
+      int next = -1;
+      if (loop == OST_LOOP_WARM && started_warm && set->cold_retry && !retry_failed) {
+        // a warm start can put Newton in a cycle (a contact's friction alternating between
+        // sticking and sliding iterates) that a cold start avoids: redo this substep once cold
+        next = OST_LOOP_COLD;
+      } else if (loop != OST_LOOP_GEO && geo_retry && !geo_failed
+                 && st.best >= st.iterates - OST_GEO_RETRY_LATE) {
+        // a loop that ran out of budget while still improving (its best iterate among its last)
+        // converged too slowly, which is what the geometric terms cause where they are large (a
+        // chain of bodies lying in contact under load): redo it cold with them. A loop whose
+        // best came early cycled (friction between sticking and sliding) or stalled, which the
+        // terms do not mend, and is split as before
+        next = OST_LOOP_GEO;
+      }
+      if (next >= 0) {
+        for (int i = 0; i < nq; i++) qpos[i] = qpos_prev[i];
+        stack[top++] = 8 * depth + next;
+        continue;
+      }
+      if (depth < set->split_depth) {
+        // redo from this substep's start as two halves
+        for (int i = 0; i < nq; i++) qpos[i] = qpos_prev[i];
+        stack[top++] = 8 * (depth + 1) + OST_LOOP_WARM;
+        stack[top++] = 8 * (depth + 1) + OST_LOOP_WARM;
+        continue;
+      }
+      if (sub_kind != loop) {
+        // the deepest level: an earlier loop of this substep did better; run it again (loops
+        // are deterministic) and commit it
+        for (int i = 0; i < nq; i++) qpos[i] = qpos_prev[i];
+        stack[top++] = 8 * depth + (sub_kind | OST_LOOP_AGAIN);
+        continue;
+      }
     }
 
     // commit (q+, u+): qpos holds q- (+) h u+ from the best iterate's geometry

@@ -27,6 +27,7 @@
   X(depenetration_speed, 0, 1)          \
   X(geometric_newton, 1, 1)               \
   X(cold_retry,    1, 1)                    \
+  X(geometric_retry, 1, 0)                  \
   X(convex_distance, 1, 0)
 
 void ost_defaultOptions(ostOptions* opt) {
@@ -60,10 +61,13 @@ static int validate(const ostOptions* o, char* err, int err_sz) {
     bad = "friction_creep must be in [0, 1] s/kg";
   } else if (!(o->depenetration_speed >= 0)) {
     bad = "depenetration_speed must be >= 0 m/s (0: remove violations at once)";
-  } else if (o->geometric_newton < 0 || o->geometric_newton > 2) {
-    bad = "geometric_newton must be 0 (off), 1 (on slow iterates) or 2 (every iterate)";
+  } else if (o->geometric_newton < 0 || o->geometric_newton > 3) {
+    bad = "geometric_newton must be 0 (off), 1 (on slow iterates), 2 (every iterate) or 3 "
+          "(every iterate, every row)";
   } else if (o->cold_retry != 0 && o->cold_retry != 1) {
     bad = "cold_retry must be 0 or 1";
+  } else if (o->geometric_retry != 0 && o->geometric_retry != 1) {
+    bad = "geometric_retry must be 0 or 1";
   } else if (o->convex_distance != 0 && o->convex_distance != 1) {
     bad = "convex_distance must be 0 or 1";
   }

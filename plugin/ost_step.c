@@ -252,7 +252,8 @@ static int newtonCallback(void* ctx, const ostNewtonStats* ns, int status) {
   mjData* d = s->d;
   ostStats* st = &c->stats;
   st->geometry_evals += ns->geometry_evals;
-  st->retries += ns->retry;
+  st->retries += ns->retry == 1;
+  st->geo_retries += ns->retry == 2;
   if (ns->nonfinite) {
     st->status |= OST_NAN;
   }
@@ -433,6 +434,7 @@ static int countStep(ostContext* c, int status) {
   t->unconverged += (st->status & OST_NOT_CONVERGED) != 0;
   t->depenetrated += (st->status & OST_DEPENETRATED) != 0;
   t->retries += st->retries;
+  t->geo_retries += st->geo_retries;
   t->overflow += (st->status & OST_OVERFLOW) != 0;
   t->worst_residual = mju_max(t->worst_residual, st->residual);
   t->worst_initial_violation = mju_max(t->worst_initial_violation, st->initial_violation);
@@ -639,7 +641,8 @@ static int commitCallback(void* ctx, ostNum h, const ostNewtonStats* ns, int bit
 // geometry is MuJoCo's (the native provider keeps the fixed-J model of the batches, CPU and GPU,
 // so that ost_step with it stays bitwise equal to them)
 static ostGeoWork* geometricNewton(ostContext* c) {
-  return c->opt.geometric_newton && c->opt.geometry != OST_GEOMETRY_NATIVE ? &c->geo : NULL;
+  return (c->opt.geometric_newton || c->opt.geometric_retry)
+         && c->opt.geometry != OST_GEOMETRY_NATIVE ? &c->geo : NULL;
 }
 
 
@@ -767,6 +770,7 @@ static int step2(ostContext* c, const mjModel* m, mjData* d, int synced) {
   w->lookahead = c->opt.margin;
   w->depen_speed = c->opt.depenetration_speed;
   c->geo.mode = c->opt.geometric_newton;
+  c->geo.retry_on = c->opt.geometric_retry;
   hostWork(c);
   memset(&c->stats, 0, sizeof(c->stats));
   c->rec_n = 0;

@@ -119,10 +119,13 @@ typedef struct ostOptions_ {
   double depenetration_speed;     // largest speed (m/s, rad/s for angular limits and
                                   // equalities) at which a violation present at the start of
                                   // a step is removed; 0 = at once                    (1)
-  int    geometric_newton;        // the Newton model's geometric term (how J' lambda turns
-                                  // with q: loaded tendons, strings, cloth): 0 off, 1 from
+  int    geometric_newton;        // the Newton model's geometric terms (core/README.md
+                                  // "Geometric term"): 0 off; how J' lambda of loaded
+                                  // equalities turns with q (tendons, strings, cloth): 1 from
                                   // the first iterate whose merit falls by less than half,
-                                  // 2 every iterate. Steps with the mujoco geometry provider
+                                  // 2 every iterate; 3 every iterate, the turning of every
+                                  // loaded row (contacts too) and of the slip J(q) u that
+                                  // friction reads. Steps with the mujoco geometry provider
                                   // only: the native provider and the batches keep the
                                   // fixed-J model, bitwise as on the GPU             (1)
   int    cold_retry;              // 1: a Newton loop that fails from its warm start is
@@ -133,6 +136,11 @@ typedef struct ostOptions_ {
                                   // true distance inside the look-ahead, found by bisection
                                   // (mujoco provider; core/README.md section 4); 0: MuJoCo's
                                   // distance of the shapes inflated by the look-ahead  (0)
+  int    geometric_retry;         // 1: a Newton loop that runs out of budget while still
+                                  // improving (and whose cold retry, if any, failed too) is
+                                  // redone once from a cold start with the geometric terms
+                                  // of geometric_newton 3, before its step is split (mujoco
+                                  // provider only; ostStats.geo_retries)               (0)
 } ostOptions;
 
 typedef enum ostGeometry_ {       // geometry providers (option `geometry`)
@@ -249,6 +257,8 @@ typedef struct ostStats_ {
   int    retries;                 // Newton loops redone from a cold start after failing from
                                   // the warm one (option cold_retry; core/README.md "Cold
                                   // retry"): 0 unless a loop failed
+  int    geo_retries;             // Newton loops redone with the geometric terms over all rows
+                                  // after failing (core/README.md "Geometric retry")
 } ostStats;
 
 // Counts since d was first stepped by Ostrich (or ost_resetTotals), like mjData.warning[].number:
@@ -259,6 +269,7 @@ typedef struct ostTotals_ {
   long   unconverged;             // steps that returned OST_WARN_NOT_CONVERGED
   long   depenetrated;            // steps with OST_DEPENETRATED
   long   retries;                 // Newton loops redone from a cold start (ostStats.retries)
+  long   geo_retries;             // and with the geometric terms (ostStats.geo_retries)
   long   overflow;                // steps with OST_OVERFLOW (capacity exceeded)
   double worst_residual;          // largest committed residual (m/s)
   double worst_initial_violation; // largest initial_violation (m or rad)

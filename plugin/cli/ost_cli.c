@@ -93,7 +93,8 @@ static void sim_usage(FILE* f) {
     "there), max_penetration (m, deepest contact over all steps), mean_residual (ostrich: merit\n"
     "residual; mujoco: final solver gradient norm), mean_newton_iter (ostrich: Newton\n"
     "iterates; mujoco: solver iterations), cold_retries (ostrich: Newton solves redone from\n"
-    "a cold start after failing from the warm one), key (the start keyframe, null: qpos0),\n"
+    "a cold start after failing from the warm one), geometric_retries (ostrich: Newton solves\n"
+    "redone with the geometric terms after failing), key (the start keyframe, null: qpos0),\n"
     "perturb (--perturb's seed, 0: none) and final_qpos. Both engines start from the same\n"
     "state: qpos0 (mj_resetData), or keyframe K with --key K.\n"
     "\n"
@@ -376,10 +377,10 @@ static void sim_report(const simArgs* a, const simRun* r) {
     cli_jsonNumber(stdout, t->worst_residual);
     printf(",\"depenetrated_steps\":%ld,\"worst_initial_violation\":", t->depenetrated);
     cli_jsonNumber(stdout, t->worst_initial_violation);
-    printf(",\"cold_retries\":%ld", t->retries);
+    printf(",\"cold_retries\":%ld,\"geometric_retries\":%ld", t->retries, t->geo_retries);
   } else {
     printf(",\"unconverged_steps\":null,\"worst_residual\":null,\"depenetrated_steps\":null,"
-           "\"worst_initial_violation\":null,\"cold_retries\":null");
+           "\"worst_initial_violation\":null,\"cold_retries\":null,\"geometric_retries\":null");
   }
   if (a->key == CLI_KEY_NONE) {
     printf(",\"key\":null");

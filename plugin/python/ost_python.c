@@ -281,14 +281,14 @@ OSTPY_API const char* ostpy_name(const ostpyPhysics* p, int type, int id) {
 #define OSTPY_OPTIONS(X) X(newton_iter) X(pcr_iter) X(k_min) X(linesearch) X(warmstart) X(tol) \
   X(pcr_tol) X(timestep) X(margin) X(fb_eps) X(eq_compliance) X(split_depth) X(split_tol)       \
   X(regularization) X(friction_creep) X(geometry) X(depenetration_speed)    \
-  X(geometric_newton) X(cold_retry) X(convex_distance)
+  X(geometric_newton) X(cold_retry) X(convex_distance) X(geometric_retry)
 
 // ostStats' and ostTotals' fields, in this order for ostpy_stats
 #define OSTPY_STATS(X) X(status) X(newton_iter) X(best_iter) X(pcr_iter) X(substeps)             \
   X(geometry_evals) X(ncon) X(nrow) X(residual) X(residual_first) X(max_penetration)            \
-  X(initial_violation) X(islands) X(ncon_capacity) X(retries)
+  X(initial_violation) X(islands) X(ncon_capacity) X(retries) X(geo_retries)
 #define OSTPY_TOTALS(X) X(steps) X(failed) X(unconverged) X(depenetrated) X(retries) X(overflow) \
-  X(worst_residual) X(worst_initial_violation) X(last_failure) X(model_packs) X(stages_reused)
+  X(geo_retries) X(worst_residual) X(worst_initial_violation) X(last_failure) X(model_packs) X(stages_reused)
 
 #define OSTPY_NAME(f) #f ","
 
