@@ -1,5 +1,5 @@
 // ost_geometric.h: the geometric terms of the Newton model (core/README.md section 1, "Geometric
-// Newton"). The step's residual moves with u through the iterate's geometry q = q- (+) h u in
+// term"). The step's residual moves with u through the iterate's geometry q = q- (+) h u in
 // two places the fixed-J model of ost_solver.h holds still:
 //   T du = h Mt^-1 d(J(q)' lambda)/du du   (lambda held): how the rows' forces turn with q, the
 //          geometric stiffness of loaded constraints (a tensioned string's whole transverse
@@ -57,7 +57,7 @@ extern "C" {
   X(ostNum, key,     nrow_max, 1)     /* matching scratch: base row index + 1        */       \
   X(int,    at,      nrow_max, 1)     /* base row -> row of the perturbed geometry   */       \
   X(ostNum, dl,      nrow_max, 1)     /* dlambda of the inner solves (discarded)     */       \
-  X(ostNum, ju_p,    nrow_max, 1)     /* J u on rows_f, + side (u: the base's)     */       \
+  X(ostNum, ju_p,    nrow_max, 1)     /* J u on rows_f, + side (u: the base's)       */       \
   X(ostNum, ju_m,    nrow_max, 1)     /* and at the - side                           */       \
   X(ostNum, dju_f,   nrow_max, 1)     /* R v on rows_f                               */       \
   X(ostNum, dju_s,   nrow_max, 1)     /* +- R v on the solver's rows (rows_s)        */       \
