@@ -165,6 +165,15 @@ void ost_fixtureSetState(const mjModel* m, mjData* d, const double* q, const dou
 }
 
 
+void ost_fixtureCopyState(const mjModel* m, mjData* dst, const mjData* src) {
+  dst->time = src->time;
+  memcpy(dst->qpos, src->qpos, m->nq * sizeof(mjtNum));
+  memcpy(dst->qvel, src->qvel, m->nv * sizeof(mjtNum));
+  memcpy(dst->ctrl, src->ctrl, m->nu * sizeof(mjtNum));
+  mju_zero(dst->qacc_warmstart, m->nv);
+}
+
+
 double ost_fixtureMaxDiff(const double* a, const double* b, int n, double* scale) {
   double e = 0;
   for (int i = 0; i < n; i++) {

@@ -36,6 +36,10 @@ void ost_fixtureTransitionFD(const mjModel* m, mjData* d, double eps, double* A,
 void ost_fixtureSetState(const mjModel* m, mjData* d, const double* q, const double* v,
                          const double* a, const double* u);
 
+// src's time, qpos, qvel and ctrl into dst (sizes from m) and dst's qacc_warmstart zeroed: an
+// Ostrich step from dst repeats a step from a restored state, started cold
+void ost_fixtureCopyState(const mjModel* m, mjData* dst, const mjData* src);
+
 // max |a - b| over n entries; *scale becomes the larger of itself and max |a|
 double ost_fixtureMaxDiff(const double* a, const double* b, int n, double* scale);
 

@@ -251,13 +251,8 @@ START_TEST(test_chainSameSolution) {
   double worst = 0;
   int compared = 0;
   for (int k = 0; k < 30; k++) {
-    mjData* pair[2] = {a, b};
-    for (int p = 0; p < 2; p++) {
-      pair[p]->time = run->time;
-      memcpy(pair[p]->qpos, run->qpos, m->nq * sizeof(mjtNum));
-      memcpy(pair[p]->qvel, run->qvel, m->nv * sizeof(mjtNum));
-      mju_zero(pair[p]->qacc_warmstart, m->nv);
-    }
+    ost_fixtureCopyState(m, a, run);
+    ost_fixtureCopyState(m, b, run);
     if (ost_step(m, a) == OST_OK && ost_step(m, b) == OST_OK) {
       for (int j = 0; j < m->nv; j++) worst = fmax(worst, fabs(a->qvel[j] - b->qvel[j]));
       compared++;

@@ -220,14 +220,8 @@ START_TEST(test_nativeStepFromSameState) {
     int ncontact = 0, nequal = 0;
     for (int k = 0; k < 100; k++) {
       for (int i = 0; i < mb->nu; i++) run->ctrl[i] = 3;
-      mjData* pair[2] = {da, db};
-      for (int p = 0; p < 2; p++) {
-        pair[p]->time = run->time;
-        memcpy(pair[p]->qpos, run->qpos, mb->nq * sizeof(mjtNum));
-        memcpy(pair[p]->qvel, run->qvel, mb->nv * sizeof(mjtNum));
-        memcpy(pair[p]->ctrl, run->ctrl, mb->nu * sizeof(mjtNum));
-        mju_zero(pair[p]->qacc_warmstart, mb->nv);
-      }
+      ost_fixtureCopyState(mb, da, run);
+      ost_fixtureCopyState(mb, db, run);
       // two Newton iterates need not reach tol: both providers take the step and agree on
       // whether it converged
       int sa = ost_step(ma, da), sb = ost_step(mb, db);
