@@ -210,14 +210,17 @@ OST_HD void osti_geoForce(ostWorld* w, ostGeoWork* gw, int nf, ostNum* g, ostNum
 }
 
 
-// out = T v = h Mt^-1 (g(u + e v) - g(u - e v)) / (2 e), e = dq / h, and gw->dju_f = R v =
-// (J(u + e v) u - J(u - e v) u) / (2 e) on the fresh rows, by two geometry evaluations; returns
-// the geometry's status (nonzero: out is not valid)
+// out = T v = h Mt^-1 (g(u + e v) - g(u - e v)) / (2 e), e = dq / (h vn), and gw->dju_f = R v =
+// (J(u + e v) u - J(u - e v) u) / (2 e) on the fresh rows, by two geometry evaluations; vn is
+// |v| (1 for the Krylov basis): the step moves q by dq whatever |v|, so the difference's rounding
+// stays relative to T v (a final direction du of 1e-8 m/s moved q by 1e-12 m, and on MuJoCo's
+// grid2pin at 10 times its step the merit then stalled at 2e-8 m/s instead of reaching 2e-12).
+// Returns the geometry's status (nonzero: out is not valid).
 OST_HD int osti_geoApplyT(ostWorld* w, ostGeoWork* gw, int nf,
                           int (*geom)(void*, const ostNum*), void* ctx, const ostNum* v,
-                          ostNum* out) {
+                          ostNum vn, ostNum* out) {
   int nv = w->nv, status = 0;
-  ostNum e = gw->dq / w->h;
+  ostNum e = gw->dq / w->h / vn;
   ostNum* u = gw->vec;
   ostNum* gm = gw->vec + nv;
   for (int side = 1; side >= -1 && !status; side -= 2) {
@@ -320,7 +323,7 @@ OST_HD int osti_geoDirection(ostWorld* w, const ostSolverOptions* so,
   while (k < m && !status) {
     ostNum* v = gw->V + (size_t)k * nv;
     ostNum* z = gw->V + (size_t)(k + 1) * nv;
-    status = osti_geoApplyT(w, gw, nf, geom, ctx, v, Tv);
+    status = osti_geoApplyT(w, gw, nf, geom, ctx, v, 1, Tv);
     osti_geoRows(w, gw->rows_s, gw->J_s, gw->nnz_s, gw->ind_s, &ns, 1);
     if (status) break;
     osti_geoRowTerm(w, gw, nf, ns, -1);
@@ -373,7 +376,9 @@ OST_HD int osti_geoDirection(ostWorld* w, const ostSolverOptions* so,
       for (int j = 0; j < nv; j++) du[j] += y[i] * gw->V[(size_t)i * nv + j];
     }
     // the consistent pair (du, dlambda): the fixed-J solve with Mt^-1 r_dyn - T du, rho + R du
-    status = osti_geoApplyT(w, gw, nf, geom, ctx, du, Tv);
+    ostNum dun = 0;
+    for (int j = 0; j < nv; j++) dun += du[j] * du[j];
+    status = osti_geoApplyT(w, gw, nf, geom, ctx, du, dun > 0 ? sqrt(dun) : 1, Tv);
     if (!status) {
       status = geom(ctx, w->qvel);
       gw->evals++;
