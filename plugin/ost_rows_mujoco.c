@@ -30,9 +30,14 @@ static void denseRow(const mjModel* m, const mjtNum* val, const int* rowadr, con
 }
 
 
-// copy efc row i of d into the dense row J (nv)
-static void efcRow(const mjModel* m, const mjData* d, int i, ostNum* J) {
+// copy efc row i of d into the dense row J (nv); *cols, *k: the columns that may be non-zero
+// when the model's Jacobians are sparse (efc_J_colind), else NULL and 0
+static void efcRow(const mjModel* m, const mjData* d, int i, ostNum* J, const int** cols,
+                   int* k) {
   denseRow(m, d->efc_J, d->efc_J_rowadr, d->efc_J_rownnz, d->efc_J_colind, i, J);
+  int sparse = mj_isSparse(m);
+  *cols = sparse ? d->efc_J_colind + d->efc_J_rowadr[i] : NULL;
+  *k = sparse ? d->efc_J_rownnz[i] : 0;
 }
 
 
@@ -421,7 +426,9 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
     memset(r, 0, sizeof(ostRow));
     r->normal = -1;
     ostNum* J = osti_rowScratch(w, n);
-    efcRow(m, d, i, J);
+    const int* cols;
+    int ncols;
+    efcRow(m, d, i, J, &cols, &ncols);
     if (type == mjCNSTR_EQUALITY) {
       // sub-row index within one equality object (connect: 3 rows, weld: 6)
       sub = (n > 0 && r[-1].type == OST_ROW_EQUALITY && r[-1].obj[0] == d->efc_id[i]) ? sub + 1 : 0;
@@ -444,7 +451,7 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
                                               : 2 + tendonLowerSide(m, d, i);
       r->pos = d->efc_pos[i] - d->efc_margin[i] + c->opt.margin;
     }
-    if (osti_rowStore(w, n, 1)) {
+    if (cols ? osti_rowStoreCols(w, n, cols, ncols) : osti_rowStore(w, n, 1)) {
       return widthOverflow(c);
     }
     n++;

@@ -1,7 +1,8 @@
 // test_ost_solver.c: the per-world Newton step on hand-made problems with closed-form answers:
 // PCR solves the Schur system exactly, GMRES the non-symmetric one of sliding friction, the direct
 // solve of an island equals GMRES, a point mass lands on a hard floor, a velocity servo; a
-// Newton loop that diverged returns its first iterate.
+// Newton loop that diverged returns its first iterate; a row stored from its known columns equals
+// the column scan.
 #include "ost_solver.h"
 #include "ost_step.h"
 
@@ -282,12 +283,75 @@ START_TEST(test_divergedReturnsFirst) {
 }
 END_TEST
 
+// osti_rowStoreCols (a row with known candidate columns) stores exactly what osti_rowStore
+// (a scan of every column) stores: the same pattern in the same order, the same values, the
+// same refusal of a pattern wider than ncol; over random trees (and no tree), rows with 1 to 12
+// candidate columns of which some are exactly zero (MuJoCo's sparse rows keep such entries),
+// on random trees and on one chain, so patterns up to the whole tree (past OST_STORE_SORT_MAX), and ncol of 8 or nv
+START_TEST(test_rowStoreCols) {
+  enum { NV = 60 };
+  unsigned seed = 7;
+  int parent[NV], cols[NV], checked = 0, refused = 0, wide = 0;
+  for (int trial = 0; trial < 400; trial++) {
+    int tree = trial % 4 != 3, ncol = trial % 5 == 4 ? 8 : NV;
+    for (int j = 0; j < NV; j++) {
+      seed = seed * 1103515245u + 12345u;
+      parent[j] = trial % 3 == 0 ? j - 1  // one chain: deep patterns
+                                 : j > 0 && (seed >> 8) % 8 ? (int)((seed >> 12) % j) : -1;
+    }
+    ostWorld a, b;
+    void* ba = aligned_alloc(64, ostu_worldSize(NV, ncol, 1));
+    void* bb = aligned_alloc(64, ostu_worldSize(NV, ncol, 1));
+    ostu_worldInit(&a, ba, NV, ncol, 1, 0.01);
+    ostu_worldInit(&b, bb, NV, ncol, 1, 0.01);
+    a.dof_parent = b.dof_parent = tree ? parent : NULL;
+    seed = seed * 1103515245u + 12345u;
+    int k = 1 + (int)((seed >> 8) % 12);
+    double* ra = osti_rowScratch(&a, 0);
+    double* rb = osti_rowScratch(&b, 0);
+    for (int j = 0; j < NV; j++) ra[j] = rb[j] = 0;
+    for (int l = 0; l < k; l++) {
+      seed = seed * 1103515245u + 12345u;
+      cols[l] = (int)((seed >> 8) % NV);  // repeats allowed
+      double v = (seed >> 20) % 4 ? ((seed >> 4) % 1000) / 999.0 - 0.5 : 0;  // some exact zeros
+      ra[cols[l]] = rb[cols[l]] = v;
+    }
+    int sa = osti_rowStore(&a, 0, 1), sb = osti_rowStoreCols(&b, 0, cols, k);
+    ck_assert_int_eq(sa, sb);
+    if (sa == 0) {
+      ck_assert_int_eq(a.Jnnz[0], b.Jnnz[0]);
+      for (int l = 0; l < a.Jnnz[0]; l++) {
+        ck_assert_int_eq(a.Jind[l], b.Jind[l]);
+        ck_assert(a.J[l] == b.J[l]);
+      }
+      wide += a.Jnnz[0] > OST_STORE_SORT_MAX;
+      checked++;
+    } else {
+      refused++;
+    }
+    for (int j = 0; j < NV; j++) {
+      ck_assert_int_eq(a.colmark[j], 0);  // the scratch is left clear
+      ck_assert_int_eq(b.colmark[j], 0);
+    }
+    free(ba);
+    free(bb);
+  }
+  printf("rowStoreCols: %d rows equal to the column scan (%d wider than %d), %d refused by both\n",
+         checked, wide, OST_STORE_SORT_MAX, refused);
+  ck_assert_int_ge(checked, 200);
+  ck_assert_int_ge(refused, 10);
+  ck_assert_int_ge(wide, 5);
+}
+END_TEST
+
+
 int main(void) {
   Suite* s = suite_create("ost_solver");
   TCase* tc = tcase_create("solver");
   tcase_add_test(tc, test_landing);
   tcase_add_test(tc, test_velocityServo);
   tcase_add_test(tc, test_pcr);
+  tcase_add_test(tc, test_rowStoreCols);
   tcase_add_test(tc, test_gmresSliding);
   tcase_add_test(tc, test_directMatchesGmres);
   tcase_add_test(tc, test_divergedReturnsFirst);
