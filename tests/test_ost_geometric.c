@@ -32,6 +32,32 @@ static void setMode(const mjModel* m, mjData* d, double h, int mode) {
 }
 
 
+// n steps of d from its state with ost_step: the steps that did not converge and that were
+// split, the Newton iterates, the worst residual (m/s) and the largest change of any tendon's
+// length from the start (m)
+typedef struct { int unconverged, split, iterates; double worst, stretch; } tendonRun;
+
+static tendonRun runTendons(const mjModel* m, mjData* d, int n) {
+  tendonRun r = {0, 0, 0, 0, 0};
+  mj_fwdPosition(m, d);
+  double* L0 = malloc(sizeof(double) * m->ntendon);
+  memcpy(L0, d->ten_length, sizeof(double) * m->ntendon);
+  for (int k = 0; k < n; k++) {
+    int status = ost_step(m, d);
+    ck_assert_msg(status == OST_OK || OST_IS_WARNING(status), "step %d: %d %s", k, status,
+                  ost_lastError(d));
+    r.unconverged += status != OST_OK;
+    r.split += ost_stats(d)->substeps > 1;
+    r.iterates += ost_stats(d)->newton_iter;
+    r.worst = fmax(r.worst, ost_stats(d)->residual);
+    mj_fwdPosition(m, d);
+    for (int t = 0; t < m->ntendon; t++) r.stretch = fmax(r.stretch, fabs(d->ten_length[t] - L0[t]));
+  }
+  free(L0);
+  return r;
+}
+
+
 // the string at h = 0.05 s for 2 s. With the term: every step converged without splitting, in
 // at most 10 Newton iterates on average (the system is smooth, no contacts: Newton on its
 // complete Jacobian converges quadratically from the warm start). Without it the same run splits
@@ -46,21 +72,10 @@ START_TEST(test_stringConverges) {
   for (int mode = 1; mode >= 0; mode--) {
     mj_resetData(m, d);
     setMode(m, d, h, mode);
-    mj_fwdPosition(m, d);
-    double L0[4];
-    memcpy(L0, d->ten_length, sizeof(L0));
-    int n = 40, split = 0, iterates = 0, unconverged = 0;
-    double stretch = 0;
-    for (int k = 0; k < n; k++) {
-      int status = ost_step(m, d);
-      ck_assert_msg(status == OST_OK || OST_IS_WARNING(status), "step %d: %d %s", k, status,
-                    ost_lastError(d));
-      unconverged += status != OST_OK;
-      split += ost_stats(d)->substeps > 1;
-      iterates += ost_stats(d)->newton_iter;
-      mj_fwdPosition(m, d);
-      for (int t = 0; t < 4; t++) stretch = fmax(stretch, fabs(d->ten_length[t] - L0[t]));
-    }
+    int n = 40;
+    tendonRun r = runTendons(m, d, n);
+    int split = r.split, iterates = r.iterates, unconverged = r.unconverged;
+    double stretch = r.stretch;
     printf("tendon string, h = %g, geometric_newton %d: %d unconverged, %d split, %.1f Newton "
            "iterates per step, max stretch %.2e m\n", h, mode, unconverged, split,
            (double)iterates / n, stretch);
@@ -94,22 +109,10 @@ START_TEST(test_gridConverges) {
   ck_assert_int_gt(m->neq, 50);
   mj_resetData(m, d);
   setMode(m, d, 0.05, 1);
-  mj_fwdPosition(m, d);
-  double* L0 = malloc(sizeof(double) * m->ntendon);
-  memcpy(L0, d->ten_length, sizeof(double) * m->ntendon);
-  int n = 20, split = 0, iterates = 0, unconverged = 0;
-  double stretch = 0, worst = 0, drop = 0;
-  for (int k = 0; k < n; k++) {
-    int status = ost_step(m, d);
-    ck_assert_msg(status == OST_OK || OST_IS_WARNING(status), "step %d: %d %s", k, status,
-                  ost_lastError(d));
-    unconverged += status != OST_OK;
-    split += ost_stats(d)->substeps > 1;
-    iterates += ost_stats(d)->newton_iter;
-    worst = fmax(worst, ost_stats(d)->residual);
-    mj_fwdPosition(m, d);
-    for (int t = 0; t < m->ntendon; t++) stretch = fmax(stretch, fabs(d->ten_length[t] - L0[t]));
-  }
+  int n = 20;
+  tendonRun r = runTendons(m, d, n);
+  int split = r.split, iterates = r.iterates, unconverged = r.unconverged;
+  double stretch = r.stretch, worst = r.worst, drop = 0;
   for (int j = 0; j < m->nq; j++) drop = fmin(drop, d->qpos[j]);
   printf("tendon grid, h = 0.05: %d unconverged, %d split, %.1f Newton iterates per step, worst "
          "residual %.2e m/s, max stretch %.2e m, lowest slide %.3f m\n", unconverged, split,
@@ -119,7 +122,6 @@ START_TEST(test_gridConverges) {
   ck_assert_double_le((double)iterates / n, 20);
   ck_assert_double_lt(stretch, 5e-5);
   ck_assert_double_lt(drop, -0.05);  // the sheet did fall and swing: the steps were not trivial
-  free(L0);
   mj_deleteData(d);
   mj_deleteModel(m);
 }

@@ -24,6 +24,21 @@ static void* makeWorld(ostWorld* w, int nv, int nrow_max, double h) {
 }
 
 
+// the world's dofs in chains of four (parent: nv entries, kept by the world), with a mass matrix
+// of diagonal 1 + j and 0.3 between a dof and its parent, factored
+static void chainsOfFour(ostWorld* w, int* parent) {
+  int nv = w->nv;
+  for (int j = 0; j < nv; j++) parent[j] = j % 4 == 0 ? -1 : j - 1;
+  for (int i = 0; i < nv * nv; i++) w->M[i] = 0;
+  for (int j = 0; j < nv; j++) {
+    w->M[j * nv + j] = 1 + j;
+    if (parent[j] >= 0) w->M[j * nv + parent[j]] = 0.3;
+  }
+  w->dof_parent = parent;
+  ck_assert_int_eq(osti_factorMass(w), 0);
+}
+
+
 // store the dense rows J (n x nv) as the world's rows 0..n-1, as a geometry provider does
 static void setRows(ostWorld* w, const double* J, int n) {
   for (int i = 0; i < n; i++) {
@@ -182,14 +197,7 @@ START_TEST(test_directMatchesGmres) {
   double h = 0.1;
   unsigned seed = 11;
   static int parent[nv];
-  for (int j = 0; j < nv; j++) parent[j] = j % 4 == 0 ? -1 : j - 1;  // chains of four dofs
-  for (int i = 0; i < nv * nv; i++) w.M[i] = 0;
-  for (int j = 0; j < nv; j++) {
-    w.M[j * nv + j] = 1 + j;
-    if (parent[j] >= 0) w.M[j * nv + parent[j]] = 0.3;
-  }
-  w.dof_parent = parent;
-  ck_assert_int_eq(osti_factorMass(&w), 0);
+  chainsOfFour(&w, parent);
   w.nrow = n;
   static double Jd[n * nv];
   for (int i = 0; i < n * nv; i++) {
@@ -361,14 +369,7 @@ START_TEST(test_stuckKrylovGoesDirect) {
   double h = 0.01;
   unsigned seed = 5;
   static int parent[nv];
-  for (int j = 0; j < nv; j++) parent[j] = j % 4 == 0 ? -1 : j - 1;
-  for (int i = 0; i < nv * nv; i++) w.M[i] = 0;
-  for (int j = 0; j < nv; j++) {
-    w.M[j * nv + j] = 1 + j;
-    if (parent[j] >= 0) w.M[j * nv + parent[j]] = 0.3;
-  }
-  w.dof_parent = parent;
-  ck_assert_int_eq(osti_factorMass(&w), 0);
+  chainsOfFour(&w, parent);
   w.nrow = n;
   static double Jd[n * nv];
   for (int i = 0; i < n * nv; i++) Jd[i] = 0;
