@@ -437,7 +437,7 @@ OST_HD int osti_rowStore(ostWorld* w, int n, int g) {
 // any order; a sparse source row's columns, e.g. MuJoCo's efc_J colind): the same pattern, found
 // by walking each non-zero column's ancestors, O(k depth) instead of O(nv) (a tendon between two
 // beads of a 237-dof grid has 6 columns). Returns 0, or 1 if the pattern is wider than ncol.
-#define OST_STORE_SORT_MAX 32  // wider patterns are ordered by one pass over the marks
+#define OST_STORE_SORT_MAX 32  // wider patterns go to osti_rowStore's scan (cheaper than a sort)
 OST_HD int osti_rowStoreCols(ostWorld* w, int n, const int* cols, int k) {
   if (!w->Jnnz) {
     return 0;
@@ -461,11 +461,13 @@ OST_HD int osti_rowStoreCols(ostWorld* w, int n, const int* cols, int k) {
       c = parent ? parent[c] : -1;
     }
   }
-  if (wide || cnt > OST_STORE_SORT_MAX) {
-    for (int l = 0; l < cnt; l++) mark[ind[l]] = 0;
-    return wide ? 1 : osti_rowStore(w, n, 1);
-  }
   for (int l = 0; l < cnt; l++) mark[ind[l]] = 0;
+  if (wide) {
+    return 1;
+  }
+  if (cnt > OST_STORE_SORT_MAX) {
+    return osti_rowStore(w, n, 1);
+  }
   for (int a = 1; a < cnt; a++) {  // descending, the order osti_rowStore leaves
     int v = ind[a], b = a - 1;
     while (b >= 0 && ind[b] < v) {
