@@ -79,13 +79,6 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNu
 // answers (median relative residual 0.2) serve a falling cloth's Newton loop, and 1e-4 made its
 // steps 2.5 times dearer and grid2pin's 1.5 times, at the rope's and the loop's speed
 #define OST_DIRECT_FALLBACK 1e-2
-// a Krylov solve that stopped at its budget with a relative residual above this made no progress:
-// its answer is no direction, so the island is solved directly wherever the world's dense arrays
-// hold it, affordable or not. MuJoCo's active_adhesion at 5 h: a 307-row island whose PCR left
-// 0.7-1.0 of its residual at every iterate stalled its Newton loop at 1e-7 m/s for 64 iterates;
-// solved directly, the step converged (the island's factor, n^3 / 3 = 1e7 flops, exceeds the
-// OST_DIRECT_KRYLOV bound, which assumes that the Krylov solves make progress)
-#define OST_DIRECT_STUCK 0.5
 // a direct answer of an island above OST_DIRECT_MAX rows (dense or envelope factor) is used only
 // if its relative residual (Jacobi norm) is at most this; else the island goes to PCR or GMRES.
 // Stable factors measured 1e-15 to 1e-10; nearly singular islands 1e-6 to 1 (dense, pivoted)
@@ -1691,20 +1684,15 @@ OST_HD int osti_schurSolveSet(ostWorld* w, const ostRowSet* set, ostNum* x, cons
   int it = osti_hasSlidingCouplingSet(w, set)
                ? osti_gmresSet(w, set, x, b, opt->pcr_iter, opt->pcr_tol)
                : osti_pcrSet(w, set, x, b, opt->pcr_iter, opt->pcr_tol);
-  int held = 0;  // the world's dense arrays hold the set (affordable or not)
-#ifndef OST_NUM_TYPE
-  held = !small && w->dof_parent && w->Ad_large && set->n <= w->ndense_large;
-#endif
-  if (!small && it >= opt->pcr_iter && (dense || held || w->env)) {
+  if (!small && it >= opt->pcr_iter && (dense || w->env)) {
     // the Krylov solve ran out of budget: its relative residual |A x - b| / |b| in the Jacobi
     // preconditioner's norm (that of PCR) decides whether it failed
     ostNum rr, bb;
     osti_residualSet(w, set, x, b, w->pcr + (size_t)w->nrow_max, &rr, &bb);
 #ifndef OST_NUM_TYPE
-    if ((dense && rr > OST_DIRECT_FALLBACK * OST_DIRECT_FALLBACK * bb)
-        || (held && rr > OST_DIRECT_STUCK * OST_DIRECT_STUCK * bb)) {
-      // inexact enough to leave Newton converging linearly (or not at all): this island and the
-      // loop's later affordable large ones go direct
+    if (dense && rr > OST_DIRECT_FALLBACK * OST_DIRECT_FALLBACK * bb) {
+      // inexact enough to leave Newton converging linearly: this island and the loop's later
+      // large ones go direct
       w->direct_large = 1;
       ostNum* keep = w->pcr + (size_t)5 * w->nrow_max;  // the Krylov answer, if the factor fails
       for (int l = 0; l < set->n; l++) keep[l] = x[l];

@@ -2,7 +2,7 @@
 // PCR solves the Schur system exactly, GMRES the non-symmetric one of sliding friction, the direct
 // solve of an island equals GMRES, a point mass lands on a hard floor, a velocity servo; a
 // Newton loop that diverged returns its first iterate; a row stored from its known columns equals
-// the column scan; a large island whose Krylov solve stalls is solved directly.
+// the column scan.
 #include "ost_solver.h"
 #include "ost_step.h"
 
@@ -353,64 +353,6 @@ START_TEST(test_rowStoreCols) {
 END_TEST
 
 
-// A large island whose Krylov solve makes no progress within its budget is solved directly even
-// where the factor costs more than OST_DIRECT_KRYLOV Krylov iterations: 300 nearly rigid
-// equality rows on 60 dofs in chains of four, each row on one or two dofs, so that 240 of them
-// are redundant, with relative compliances spread from 1e-6 to 1e-2 (the redundant directions'
-// eigenvalues spread over four decades). PCR with the default budget of 32 leaves more than
-// OST_DIRECT_STUCK of the residual (measured 0.81: its answer is no direction);
-// osti_schurSolveSet's answer must solve the system to OST_DIRECT_EXACT (measured 8.7e-11).
-START_TEST(test_stuckKrylovGoesDirect) {
-  enum { nv = 60, n = 300 };
-  ostWorld w;
-  void* buf = makeWorld(&w, nv, n, 0.01);
-  void* dbuf = aligned_alloc(64, ostu_denseLargeSize(nv, n));
-  ostu_denseLargeInit(&w, dbuf, n);
-  double h = 0.01;
-  unsigned seed = 5;
-  static int parent[nv];
-  chainsOfFour(&w, parent);
-  w.nrow = n;
-  static double Jd[n * nv];
-  for (int i = 0; i < n * nv; i++) Jd[i] = 0;
-  for (int i = 0; i < n; i++) {
-    for (int e = 0; e < 1 + i % 2; e++) {
-      seed = seed * 1103515245u + 12345u;
-      Jd[i * nv + (seed >> 8) % nv] = (double)((seed >> 4) % 1000) / 500 - 1;
-    }
-  }
-  setRows(&w, Jd, n);
-  for (int i = 0; i < n; i++) {
-    w.rows[i] = (ostRow){0};
-    w.rows[i].type = OST_ROW_EQUALITY;
-    w.rows[i].normal = -1;
-    osti_rowDiag(&w, i);
-    seed = seed * 1103515245u + 12345u;
-    w.c[i] = pow(10, -6 + 4.0 * ((seed >> 8) % 1000) / 1000) * h * w.diag[i];
-  }
-  double b[n], x[n], r[n], rr, bb;
-  for (int i = 0; i < n; i++) b[i] = sin(1.0 + i);
-  ostRowSet set = osti_wholeSet(&w);
-  ostSolverOptions o = options();
-  o.pcr_iter = 32;
-  ck_assert_int_eq(osti_directAffordable(&w, &set), 0);
-  for (int i = 0; i < n; i++) x[i] = 0;
-  ck_assert_int_eq(osti_pcrSet(&w, &set, x, b, o.pcr_iter, o.pcr_tol), o.pcr_iter);
-  osti_residualSet(&w, &set, x, b, r, &rr, &bb);
-  double stuck = sqrt(rr / bb);
-  for (int i = 0; i < n; i++) x[i] = 0;
-  osti_schurSolveSet(&w, &set, x, b, &o);
-  osti_residualSet(&w, &set, x, b, r, &rr, &bb);
-  printf("stuck Krylov solve: PCR (32 iterations) leaves %.3g of the residual; the island's "
-         "answer %.3g\n", stuck, sqrt(rr / bb));
-  ck_assert_double_gt(stuck, OST_DIRECT_STUCK);
-  ck_assert_double_lt(sqrt(rr / bb), OST_DIRECT_EXACT);
-  free(dbuf);
-  free(buf);
-}
-END_TEST
-
-
 int main(void) {
   Suite* s = suite_create("ost_solver");
   TCase* tc = tcase_create("solver");
@@ -420,7 +362,6 @@ int main(void) {
   tcase_add_test(tc, test_rowStoreCols);
   tcase_add_test(tc, test_gmresSliding);
   tcase_add_test(tc, test_directMatchesGmres);
-  tcase_add_test(tc, test_stuckKrylovGoesDirect);
   tcase_add_test(tc, test_divergedReturnsFirst);
   suite_add_tcase(s, tc);
   return ost_fixtureRun(s);
