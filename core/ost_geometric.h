@@ -376,9 +376,8 @@ OST_HD int osti_geoDirection(ostWorld* w, const ostSolverOptions* so,
       for (int j = 0; j < nv; j++) du[j] += y[i] * gw->V[(size_t)i * nv + j];
     }
     // the consistent pair (du, dlambda): the fixed-J solve with Mt^-1 r_dyn - T du, rho + R du
-    ostNum dun = 0;
-    for (int j = 0; j < nv; j++) dun += du[j] * du[j];
-    status = osti_geoApplyT(w, gw, nf, geom, ctx, du, dun > 0 ? sqrt(dun) : 1, Tv);
+    ostNum dun = sqrt(ostu_dot(du, du, nv));
+    status = osti_geoApplyT(w, gw, nf, geom, ctx, du, dun > 0 ? dun : 1, Tv);
     if (!status) {
       status = geom(ctx, w->qvel);
       gw->evals++;
