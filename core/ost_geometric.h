@@ -64,7 +64,8 @@ extern "C" {
   X(ostNum, V,       nv, OST_GEO_KRYLOV + 1)  /* Krylov basis                        */       \
   X(ostNum, Hg,      OST_GEO_KRYLOV + 1, OST_GEO_KRYLOV + 3) /* Hessenberg, rotations */      \
   X(ostNum, vec,     nv, 4)           /* u of a side, J' lambda of a side, T v, du   */      \
-  X(ostNum, yrow,    nrow_max, ncol)  /* ostWorld.yrow's storage (host row cache)    */
+  X(ostNum, yrow,    nrow_max, ncol)  /* ostWorld.yrow's storage (host row cache)    */       \
+  X(ostNum, yrow_sqrtd, nv, 1)        /* ostWorld.yrow_sqrtd's (sqrt D per dof)       */
 
 typedef struct ostGeoWork_ {      // geometric Newton state of one world (host only)
   int    mode;                    // 0 off; T over equality rows: 1 from a slow iterate on, 2 at

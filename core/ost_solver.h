@@ -196,6 +196,9 @@ typedef struct ostWorld_ {        // one world: sizes and pointers into one allo
   ostNum* yrow;                   // host cache of each row's half-solve L^-T J_i' on its pattern
                                   // (nrow_max x ncol; osti_rowDiag writes it, osti_directSet
                                   // reads it); NULL: none (GPU, batches, the adjoint)
+  ostNum* yrow_sqrtd;             // with yrow: sqrt of the tree factor's diagonal D per dof,
+                                  // set by osti_factorMass (the D^-1/2 of the cached half-solves,
+                                  // one sqrt per dof and step instead of one per entry and solve)
   struct ostEnvWork_* env;        // host envelope solves of large islands (ost_envelope.h);
                                   // NULL: none (they need yrow)
   int    op_version;              // counts changes of the Newton operator (rows, J, c, the
@@ -278,6 +281,7 @@ OST_HD void ostu_worldInitFor(ostWorld* w, void* buf, int nv, int ncol, int nrow
   w->dof_parent = NULL;
   w->geo = NULL;
   w->yrow = NULL;
+  w->yrow_sqrtd = NULL;
   w->env = NULL;
   w->op_version = 0;
   w->dense_bad.version = -1;
@@ -339,8 +343,14 @@ OST_HD void ostu_denseLargeInit(ostWorld* w, void* buf, int nrow_max) {
 // factor Mt = M + h D in place (the caller filled w->M, and w->dof_parent for a tree-sparse
 // factor); returns 0 or 1 + failing column
 OST_HD int osti_factorMass(ostWorld* w) {
-  return w->dof_parent ? ostu_treeFactor(w->M, w->dof_parent, w->nv)
-                       : ostu_cholFactor(w->M, w->nv);
+  int rc = w->dof_parent ? ostu_treeFactor(w->M, w->dof_parent, w->nv)
+                         : ostu_cholFactor(w->M, w->nv);
+#if OST_ROW_CACHE
+  if (!rc && w->yrow_sqrtd && w->dof_parent) {
+    for (int c = 0; c < w->nv; c++) w->yrow_sqrtd[c] = sqrt(w->M[(size_t)c * w->nv + c]);
+  }
+#endif
+  return rc;
 }
 
 
@@ -1528,8 +1538,14 @@ OST_HD int osti_directSet(ostWorld* w, const ostRowSet* set, ostNum* x, const os
     if (w->yrow) {
       // the evaluated iterate's half-solve, as osti_rowDiag computed it from the same J and M
       const ostNum* yr = w->yrow + (size_t)i * ncol;
-      for (int k = cnt - 1; k >= 0; k--) {
-        Yt[(size_t)ind[k] * n + l] = yr[k] / sqrt(w->M[(size_t)ind[k] * nv + ind[k]]);
+      if (w->yrow_sqrtd && parent) {  // osti_factorMass filled it
+        for (int k = cnt - 1; k >= 0; k--) {
+          Yt[(size_t)ind[k] * n + l] = yr[k] / w->yrow_sqrtd[ind[k]];  // the same sqrt, once
+        }
+      } else {
+        for (int k = cnt - 1; k >= 0; k--) {
+          Yt[(size_t)ind[k] * n + l] = yr[k] / sqrt(w->M[(size_t)ind[k] * nv + ind[k]]);
+        }
       }
       continue;
     }

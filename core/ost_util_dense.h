@@ -73,10 +73,32 @@ OST_HD int ostu_cholFactor(ostNum* A, int n) {
     }
     ostNum ljj = sqrt(djj);
     A[j * n + j] = ljj;
-    for (int i = j + 1; i < n; i++) {
+    // column j below the diagonal, four rows at a time: four independent sums in flight instead
+    // of one latency-bound chain (each sum still runs over k in ascending order: the same bits)
+    const ostNum* Aj = A + j * n;
+    int i = j + 1;
+    for (; i + 3 < n; i += 4) {
+      ostNum* A0 = A + i * n;
+      ostNum* A1 = A0 + n;
+      ostNum* A2 = A1 + n;
+      ostNum* A3 = A2 + n;
+      ostNum s0 = A0[j], s1 = A1[j], s2 = A2[j], s3 = A3[j];
+      for (int k = 0; k < j; k++) {
+        ostNum a = Aj[k];
+        s0 -= A0[k] * a;
+        s1 -= A1[k] * a;
+        s2 -= A2[k] * a;
+        s3 -= A3[k] * a;
+      }
+      A0[j] = s0 / ljj;
+      A1[j] = s1 / ljj;
+      A2[j] = s2 / ljj;
+      A3[j] = s3 / ljj;
+    }
+    for (; i < n; i++) {
       ostNum s = A[i * n + j];
       for (int k = 0; k < j; k++) {
-        s -= A[i * n + k] * A[j * n + k];
+        s -= A[i * n + k] * Aj[k];
       }
       A[i * n + j] = s / ljj;
     }

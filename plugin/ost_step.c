@@ -651,6 +651,7 @@ static ostGeoWork* geometricNewton(ostContext* c) {
 static void hostWork(ostContext* c) {
   c->world.geo = geometricNewton(c);
   c->world.yrow = c->opt.geometry != OST_GEOMETRY_NATIVE && !c->no_row_cache ? c->geo.yrow : NULL;
+  c->world.yrow_sqrtd = c->world.yrow ? c->geo.yrow_sqrtd : NULL;
   c->world.env = c->world.yrow && !c->no_envelope ? &c->env : NULL;  // they read the cache
 }
 
@@ -779,6 +780,7 @@ static int step2(ostContext* c, const mjModel* m, mjData* d, int synced) {
   saveState(m, d, c->state_start);
   status = advanceGrowing(c, m, d, h);
   c->world.yrow = NULL;  // the cache is the step's: the adjoint and others run without it
+  c->world.yrow_sqrtd = NULL;
   c->world.env = NULL;
   if (status) {
     if (status == OST_ERR_OVERFLOW) {
