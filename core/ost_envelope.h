@@ -63,7 +63,12 @@
   X(ostNum, s,      nrow_max, 1)      /* equilibration 1 / sqrt(A_ll), by envelope row     */  \
   X(ostNum, xs,     nrow_max, 1)      /* a new factor's first answer, checked before use   */  \
   X(ostNum, res,    nrow_max, 1)      /* its residual                                      */  \
-  X(ostNum, L,      cap, 1)           /* the factor, row by row within the envelope        */
+  X(ostNum, L,      cap, 1)           /* the factor, row by row within the envelope        */  \
+  X(int,    red_row, nrow_max, 1)     /* a reduced set's rows (osti_decoupledSolve)        */  \
+  X(ostNum, red_x,  nrow_max, 1)      /* the decoupled rows' answers, zero elsewhere       */  \
+  X(ostNum, red_ax, nrow_max, 1)      /* the operator on red_x                             */  \
+  X(ostNum, red_b,  nrow_max, 1)      /* the reduced right-hand side                       */  \
+  X(ostNum, red_y,  nrow_max, 1)      /* the reduced answer                                */
 
 typedef struct ostEnvWork_ {      // envelope solves of one host world (ost_envelope.h)
   int    nrow_max;                // row capacity the arrays were sized for
@@ -78,6 +83,10 @@ typedef struct ostEnvWork_ {      // envelope solves of one host world (ost_enve
   int    solves;                  // solves by this path (counter, never reset here)
   int    factors;                 // factors they took (counter)
   int    rejects;                 // factors rejected by their first answer (counter)
+  int    decouple;                // 1: large sets' open contacts are solved alone
+                                  // (osti_decoupledSolve; option decouple_open)
+  int    reducing;                // 1 while osti_decoupledSolve solves its reduced set
+  int    reduced;                 // sets solved reduced (counter, never reset here)
 #define X(type, name, r, c) type* name;
   OST_ENV_ARRAYS(X)
 #undef X
@@ -121,6 +130,9 @@ OST_HD void ostu_envInit(ostEnvWork* e, void* buf, int nv, int ncol, int nrow_ma
   e->solves = 0;
   e->factors = 0;
   e->rejects = 0;
+  e->decouple = 0;
+  e->reducing = 0;
+  e->reduced = 0;
 #define X(type, name, r, c)                      \
   e->name = (type*)p;                            \
   p += (((size_t)(r) * (c) * sizeof(type) + 63) / 64) * 64;

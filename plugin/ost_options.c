@@ -28,7 +28,8 @@
   X(geometric_newton, 1, 1)               \
   X(cold_retry,    1, 1)                    \
   X(geometric_retry, 1, 0)                  \
-  X(convex_distance, 1, 0)
+  X(convex_distance, 1, 0)                  \
+  X(decouple_open, 1, 0)
 
 void ost_defaultOptions(ostOptions* opt) {
 #define X(name, isint, def) opt->name = def;
@@ -70,6 +71,8 @@ static int validate(const ostOptions* o, char* err, int err_sz) {
     bad = "geometric_retry must be 0 or 1";
   } else if (o->convex_distance != 0 && o->convex_distance != 1) {
     bad = "convex_distance must be 0 or 1";
+  } else if (o->decouple_open != 0 && o->decouple_open != 1) {
+    bad = "decouple_open must be 0 or 1";
   }
   if (bad) {
     if (err) snprintf(err, err_sz, "ostrich option: %s", bad);

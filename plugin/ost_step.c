@@ -649,10 +649,17 @@ static ostGeoWork* geometricNewton(ostContext* c) {
 // the host-only work of a step on the world: the geometric term's arrays and the rows'
 // half-solve cache (same bits as without it; kept off the native provider like the term)
 static void hostWork(ostContext* c) {
+  // the options as the arrays' (re)initialization left them: a capacity grown within a step
+  // (advanceGrowing) makes the arrays again, and the step's retry ran without the geometric
+  // term (MuJoCo's hammock at 25 ms, whose look-ahead overflows its nconmax in the first step:
+  // 854 Newton iterates and that step unconverged, against 198 and converged with room)
+  c->geo.mode = c->opt.geometric_newton;
+  c->geo.retry_on = c->opt.geometric_retry;
   c->world.geo = geometricNewton(c);
   c->world.yrow = c->opt.geometry != OST_GEOMETRY_NATIVE && !c->no_row_cache ? c->geo.yrow : NULL;
   c->world.yrow_sqrtd = c->world.yrow ? c->geo.yrow_sqrtd : NULL;
   c->world.env = c->world.yrow && !c->no_envelope ? &c->env : NULL;  // they read the cache
+  c->env.decouple = c->opt.decouple_open;
 }
 
 
@@ -770,8 +777,6 @@ static int step2(ostContext* c, const mjModel* m, mjData* d, int synced) {
   ostWorld* w = &c->world;
   w->lookahead = c->opt.margin;
   w->depen_speed = c->opt.depenetration_speed;
-  c->geo.mode = c->opt.geometric_newton;
-  c->geo.retry_on = c->opt.geometric_retry;
   hostWork(c);
   memset(&c->stats, 0, sizeof(c->stats));
   c->rec_n = 0;

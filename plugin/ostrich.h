@@ -141,6 +141,13 @@ typedef struct ostOptions_ {
                                   // redone once from a cold start with the geometric terms
                                   // of geometric_newton 3, before its step is split (mujoco
                                   // provider only; ostStats.geo_retries)               (0)
+  int    decouple_open;           // 1: the open contacts of an island above 96 rows (rows of
+                                  // the look-ahead whose gap stays open, and their friction)
+                                  // are solved alone, out of its Krylov solve (mujoco
+                                  // provider; core/README.md section 1, "Open contacts
+                                  // solved alone"): nets whose neighbours sit inside the
+                                  // look-ahead; a cloth lying on a sphere converges less
+                                  // often with it                                      (0)
 } ostOptions;
 
 typedef enum ostGeometry_ {       // geometry providers (option `geometry`)
