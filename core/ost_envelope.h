@@ -433,8 +433,7 @@ OST_HD int osti_envelopeSet(ostWorld* w, const ostRowSet* set, ostNum* x, const 
       const ostNum* yr = w->yrow + (size_t)i * w->ncol;
       ostNum* Y = e->Y + (size_t)l * w->ncol;
       for (int k = 0; k < w->Jnnz[i]; k++) {
-        Y[k] = yr[k] / (w->yrow_sqrtd ? w->yrow_sqrtd[ind[k]]
-                                      : sqrt(w->M[(size_t)ind[k] * w->nv + ind[k]]));
+        Y[k] = yr[k] / osti_sqrtD(w, ind[k]);
       }
     }
     // symmetric equilibration S A S, S = diag(A)^-1/2 (the Jacobi scale PCR uses): fixed rows'

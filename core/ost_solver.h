@@ -354,6 +354,16 @@ OST_HD int osti_factorMass(ostWorld* w) {
 }
 
 
+#if OST_ROW_CACHE
+// sqrt(D_c) of the tree factor, the D^-1/2 scale of a cached half-solve's entry at dof c: from
+// the step's cache where osti_factorMass filled it, else computed (the same bits either way)
+OST_HD ostNum osti_sqrtD(const ostWorld* w, int c) {
+  return w->yrow_sqrtd && w->dof_parent ? w->yrow_sqrtd[c]
+                                        : sqrt(w->M[(size_t)c * w->nv + c]);
+}
+#endif
+
+
 // x = Mt^-1 x with the factor of osti_factorMass
 OST_HD void osti_massSolve(const ostWorld* w, ostNum* x) {
   if (w->dof_parent) {
@@ -1542,14 +1552,8 @@ OST_HD int osti_directSet(ostWorld* w, const ostRowSet* set, ostNum* x, const os
     if (w->yrow) {
       // the evaluated iterate's half-solve, as osti_rowDiag computed it from the same J and M
       const ostNum* yr = w->yrow + (size_t)i * ncol;
-      if (w->yrow_sqrtd && parent) {  // osti_factorMass filled it
-        for (int k = cnt - 1; k >= 0; k--) {
-          Yt[(size_t)ind[k] * n + l] = yr[k] / w->yrow_sqrtd[ind[k]];  // the same sqrt, once
-        }
-      } else {
-        for (int k = cnt - 1; k >= 0; k--) {
-          Yt[(size_t)ind[k] * n + l] = yr[k] / sqrt(w->M[(size_t)ind[k] * nv + ind[k]]);
-        }
+      for (int k = cnt - 1; k >= 0; k--) {
+        Yt[(size_t)ind[k] * n + l] = yr[k] / osti_sqrtD(w, ind[k]);
       }
       continue;
     }
@@ -1747,12 +1751,12 @@ OST_HD int osti_schurSolveSet(ostWorld* w, const ostRowSet* set, ostNum* x, cons
 #if OST_ROW_CACHE
 // A row whose compliance dwarfs its Schur diagonal, c / h >= OST_DECOUPLED J Mt^-1 J', has its
 // force fixed by its own residual: a contact whose gap stays open (its FB derivative on the
-// gap, floored at 1e-12, gives c / h ~ 1e12 J Mt^-1 J'), the force of sliding friction along
-// its slip and a force held at zero (OST_FIXED_ROW). Its coupling to every other row is at most
+// gap, floored at 1e-12, gives c / h ~ 1e12 J Mt^-1 J'), and the friction rows of such a
+// contact, held at its (vanishing) cone. Its coupling to every other row is at most
 // 1 / OST_DECOUPLED of its diagonal, so within that relative error it is solved alone,
 //   x_f = (b_f + (c_f / h) mu x_n) / (J_f Mt^-1 J_f' + c_f / h)
 // (mu x_n: a sliding row's coupling to its contact's normal, itself decoupled), and the other
-// rows solve the reduced system A_RR x_R = b_R - (A x_F)_R. A hammock whose neighbouring
+// rows solve the reduced system A_RR x_R = b_R - (A x_F)_R (option decouple_open). A hammock whose neighbouring
 // spheres all sit inside the look-ahead got 433-595 rows, 60 % of them open contacts, that
 // left its island to PCR and GMRES (relative residuals 0.03-360) and its first step at 25 ms
 // unconverged; without them the island is the net's 178 rows, solved exactly.
