@@ -130,17 +130,18 @@ OST_HD ostNum osti_gjkClosest(ostGjkPoint* S, int* n, ostNum lam[4], ostNum v[3]
 }
 
 
-// distance of geoms g1 and g2 (margin 0): returns 1 and the distance with the witness points a
-// (on g1) and b (on g2) if they are separated, 0 if they touch or overlap (the origin lies in the
-// Minkowski difference: MPR measures that case). v, the simplex's nearest point, approaches
-// a - b; each support point w = s1(-v) - s2(v) gives the lower bound v.w / |v| of the distance,
-// and the loop stops once |v|^2 - v.w <= OST_GJK_REL |v|^2 (or w repeats a vertex, or after
-// OST_GJK_ITER support points).
-OST_HD int osti_gjkDistance(const ostGeom* g1, const ostGeom* g2, ostNum* dist, ostNum a[3],
-                            ostNum b[3]) {
-  ostGjkPoint S[4];
-  ostNum v[3], lam[4] = {1, 0, 0, 0};
+// GJK on geoms g1 and g2 (margin 0): returns 1 if they are separated, with the simplex S (n
+// vertices), the barycentrics lam of its point v nearest the origin and |v|^2 in *vv; 0 if they
+// touch or overlap (the origin lies in the Minkowski difference; S then holds n = 4 vertices
+// around it, or fewer when the origin lies on S). v approaches a - b; each support point
+// w = s1(-v) - s2(v) gives the lower bound v.w / |v| of the distance, and the loop stops once
+// |v|^2 - v.w <= OST_GJK_REL |v|^2 (or w repeats a vertex, or after OST_GJK_ITER support points).
+OST_HD int osti_gjkSimplex(const ostGeom* g1, const ostGeom* g2, ostGjkPoint S[4], int* nS,
+                           ostNum lam[4], ostNum* vvout) {
+  ostNum v[3];
   int n = 0;
+  lam[0] = 1;
+  lam[1] = lam[2] = lam[3] = 0;
   osti_cvxSub(v, g1->pos, g2->pos);  // first direction: between the geoms' frames
   if (osti_cvxDot(v, v) < OST_MINVAL) {
     v[0] = 1;
@@ -173,8 +174,26 @@ OST_HD int osti_gjkDistance(const ostGeom* g1, const ostGeom* g2, ostNum* dist, 
     S[n++] = p;
     vv = osti_gjkClosest(S, &n, lam, v);
     if (n == 4 || vv < OST_MINVAL * OST_MINVAL) {
+      *nS = n;
       return 0;  // the origin is inside the simplex, or on it
     }
+  }
+  *nS = n;
+  *vvout = vv;
+  return 1;
+}
+
+
+// distance of geoms g1 and g2 (margin 0): returns 1 and the distance with the witness points a
+// (on g1) and b (on g2) if they are separated, 0 if they touch or overlap (MPR or EPA measure
+// that case)
+OST_HD int osti_gjkDistance(const ostGeom* g1, const ostGeom* g2, ostNum* dist, ostNum a[3],
+                            ostNum b[3]) {
+  ostGjkPoint S[4];
+  ostNum lam[4], vv;
+  int n;
+  if (!osti_gjkSimplex(g1, g2, S, &n, lam, &vv)) {
+    return 0;
   }
   for (int c = 0; c < 3; c++) {
     a[c] = b[c] = 0;
@@ -186,6 +205,7 @@ OST_HD int osti_gjkDistance(const ostGeom* g1, const ostGeom* g2, ostNum* dist, 
   *dist = sqrt(vv);
   return 1;
 }
+
 
 #ifdef __cplusplus
 }

@@ -5,6 +5,7 @@
 #include "ost_collision_box.h"
 #include "ost_collision_boxbox.h"
 #include "ost_collision_convex.h"
+#include "ost_collision_epa.h"
 #include "ost_collision_gjk.h"
 #include "ost_collision_mpr.h"
 #include "ost_collision_primitive.h"
@@ -46,4 +47,15 @@ __global__ void ost_nativeCompile_kernel(ostModel m, ostKin* kin, ostWorld* worl
   osti_nativeStart(&m, kin + w, worlds + w, qpos, qvel, ctrl, NULL, NULL, 0.01);
   status[w] = osti_nativeIterate(&m, kin + w, worlds + w, qpos, ctrl, 0.01, 0.01);
   osti_passive(&m, kin + w, qpos, qvel);
+}
+
+
+// EPA's penetration of geom pairs (2i, 2i+1): its depth, or -1 where it returns 0
+__global__ void ost_epaCompile_kernel(const ostGeom* g, ostNum* depth, int npair) {
+  int i = blockIdx.x * blockDim.x + threadIdx.x;
+  if (i >= npair) {
+    return;  // guard first
+  }
+  ostNum d, n[3], a[3], b[3];
+  depth[i] = osti_epaPenetration(g + 2*i, g + 2*i + 1, &d, n, a, b, NULL) ? d : -1;
 }
