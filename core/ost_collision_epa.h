@@ -105,14 +105,15 @@ OST_HD int osti_epaStart(ostGjkPoint P[4], int n, const ostGeom* g1, const ostGe
     return 0;
   }
   if (n == 2) {
-    // a direction normal to the segment: the segment crossed with the axis it leans on least
-    ostNum e[3], ax[3] = {0, 0, 0}, d1[3], d2[3];
+    // directions normal to the segment: the tangents of a contact frame about it
+    ostNum e[3], fr[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
     osti_cvxSub(e, P[1].w, P[0].w);
-    int k = fabs(e[0]) < fabs(e[1]) ? 0 : 1;
-    k = fabs(e[2]) < fabs(e[k]) ? 2 : k;
-    ax[k] = 1;
-    osti_cvxCross(d1, e, ax);
-    osti_cvxCross(d2, e, d1);
+    fr[0] = e[0];
+    fr[1] = e[1];
+    fr[2] = e[2];
+    osti_makeFrame(fr);
+    const ostNum* d1 = fr + 3;
+    const ostNum* d2 = fr + 6;
     const ostNum* dirs[2] = {d1, d2};
     int found = 0;
     for (int t = 0; t < 4 && !found; t++) {
@@ -178,14 +179,10 @@ OST_HD int osti_epaPolish(const ostGeom* g1, const ostGeom* g2, ostNum n[3], ost
   osti_epaSupport(p, g1, g2, n);
   *h = osti_cvxDot(p->w, n);
   for (int it = 0; it < OST_EPA_NEWTON; it++) {
-    // tangent basis: n crossed with the axis it leans on least, then n x t1
-    ostNum t[2][3], ax[3] = {0, 0, 0};
-    int k = fabs(n[0]) < fabs(n[1]) ? 0 : 1;
-    k = fabs(n[2]) < fabs(n[k]) ? 2 : k;
-    ax[k] = 1;
-    osti_cvxCross(t[0], n, ax);
-    osti_cvxScale(t[0], 1 / sqrt(osti_cvxDot(t[0], t[0])));
-    osti_cvxCross(t[1], n, t[0]);
+    // tangent basis T = [t1 t2]: the tangents of a contact frame about n
+    ostNum fr[9] = {n[0], n[1], n[2], 0, 0, 0, 0, 0, 0};
+    osti_makeFrame(fr);
+    const ostNum* t[2] = {fr + 3, fr + 6};
     ostNum g[2] = {osti_cvxDot(t[0], p->w), osti_cvxDot(t[1], p->w)}, H[2][2];
     for (int j = 0; j < 2; j++) {
       ostGjkPoint q;
