@@ -186,13 +186,14 @@ static void addPair(ostModel* om, int* n, const mjModel* m, int terrain, int g1,
 
 
 // 1 if geom types t1, t2 (either order) are a pair that both providers collide with core's own
-// functions: cylinder-box (ost_collision_cylbox.h), height field-primitive (_terrain.h and
+// functions: cylinder-box (ost_collision_cylbox.h), ellipsoid-box (_ellbox.h: exact where the
+// ellipsoid's deepest point lies over a face, MPR's depth is off by millimetres), height field-primitive (_terrain.h and
 // _cylsurf.h: true gaps within the look-ahead, where MuJoCo 2.2.2 reports -depth),
 // plane-mesh and plane-cylinder (ost_collision_primitive.h: contact sets that move continuously),
 // box-box (ost_collision_boxbox.h: the signed distance, where MuJoCo reports half of it)
 static int coreTypes(int t1, int t2) {
   int lo = t1 < t2 ? t1 : t2, hi = t1 < t2 ? t2 : t1;
-  return (lo == mjGEOM_CYLINDER && hi == mjGEOM_BOX)
+  return ((lo == mjGEOM_CYLINDER || lo == mjGEOM_ELLIPSOID) && hi == mjGEOM_BOX)
          || (lo == mjGEOM_HFIELD && hi > mjGEOM_HFIELD && hi != mjGEOM_MESH)
          || (lo == mjGEOM_PLANE && (hi == mjGEOM_MESH || hi == mjGEOM_CYLINDER))
          || (lo == mjGEOM_BOX && hi == mjGEOM_BOX);

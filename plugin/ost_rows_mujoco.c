@@ -6,10 +6,12 @@
 // at MuJoCo's geom poses, as in the native provider), servo rows from the actuators. Invariant: rows are produced in a deterministic order, so that evaluating the
 // same q twice yields identical rows (the best iterate is re-evaluated by index).
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "ost_collision_boxbox.h"
 #include "ost_collision_cylbox.h"
+#include "ost_collision_ellbox.h"
 #include "ost_collision_gjk.h"
 #include "ost_collision_terrain.h"
 #include "ost_internal.h"
@@ -304,6 +306,10 @@ int ost_collideCorePair(const mjModel* m, const mjData* d, const ostNum* hfield_
   }
   if (a.type == mjGEOM_BOX && b.type == mjGEOM_BOX) {
     return osti_collideBoxBox(con, &a, &b, margin);
+  }
+  if (a.type == mjGEOM_ELLIPSOID) {
+    return osti_collideEllipsoidBox(con, &a, &b, margin, m->opt.mpr_tolerance,
+                                    m->opt.mpr_iterations);
   }
   return osti_collideCylinderBox(con, &a, &b, margin);
 }

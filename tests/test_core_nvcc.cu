@@ -5,6 +5,7 @@
 #include "ost_collision_box.h"
 #include "ost_collision_boxbox.h"
 #include "ost_collision_convex.h"
+#include "ost_collision_ellbox.h"
 #include "ost_collision_epa.h"
 #include "ost_collision_gjk.h"
 #include "ost_collision_mpr.h"
