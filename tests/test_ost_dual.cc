@@ -571,6 +571,34 @@ START_TEST(test_palletTop) {
 END_TEST
 
 
+// an ellipsoid (a free body) about a box (core/ost_collision_ellbox.h) with its nearest box
+// feature a face, an edge and a corner, turned about two axes, overlapping or within the 1 cm
+// margin: one contact each, whose dist, frame and pos come from a closed form (face) or the root
+// of the secular equation (edge, corner), differentiated through its last Newton steps
+START_TEST(test_ellipsoidBox) {
+  ost_fixtureSetup();
+  const char* xml =
+    "<mujoco><worldbody><geom type='box' size='0.05 0.05 0.01' margin='0.01'/>"
+    "<body><freejoint/><geom type='ellipsoid' size='0.03 0.04 0.02' margin='0.01'/></body>"
+    "</worldbody></mujoco>";
+  Packed p(ost_fixtureLoadString(xml));
+  const double place[3][3] = {{0.01, 0.005, 0.031}, {0.068, 0.0, 0.028}, {0.066, 0.068, 0.024}};
+  const char* where[3] = {"face", "edge", "corner"};
+  for (int c = 0; c < 3; c++) {
+    std::vector<mjtNum> qpos(p.m->nq);
+    mjtNum qx[4] = {cos(0.15), sin(0.15), 0, 0}, qz[4] = {cos(0.4), 0, 0, sin(0.4)};
+    for (int k = 0; k < 3; k++) qpos[k] = place[c][k];
+    mju_mulQuat(qpos.data() + 3, qz, qx);
+    Agreement a[2];
+    ck_assert_int_eq(checkContacts(&p, qpos.data(), a), 1);
+    char lab[64];
+    snprintf(lab, sizeof(lab), "ellipsoid:box %s", where[c]);
+    report(lab, a[1], cname, 0, NC, TOL_CON);
+  }
+}
+END_TEST
+
+
 int main(void) {
   Suite* s = suite_create("ost_dual");
   TCase* tc = tcase_create("dual");
@@ -582,6 +610,7 @@ int main(void) {
   tcase_add_test(tc, test_contactsWheeledRobot);
   tcase_add_test(tc, test_palletEdge);
   tcase_add_test(tc, test_palletTop);
+  tcase_add_test(tc, test_ellipsoidBox);
   suite_add_tcase(s, tc);
   return ost_fixtureRun(s);
 }
