@@ -633,6 +633,16 @@ OST_HD int osti_collideBoxBoxMode(ostContact* con, const ostGeom* g1, const ostG
   }
   p[2] -= ext[2];
   n = osti_boxEdgePoints(pts, depth, p, rnorm, r, s2, ext, j, ax1, ax2, cle2, inward, margin);
+  if (!mujoco) {
+    // no point of either box lies deeper than the overlap pen along the contact axis, but the
+    // points of an edge contact are clipped against a face of box 1 and measured there: where
+    // the boxes cross at an angle they came out centimetres deep for boxes millimetres apart
+    // (two fingers of the Allegro hand 6.8 mm apart: a point at -22 mm, and Newton cycled).
+    // Such a point is given the deepest distance the axis allows
+    for (int h = 0; h < n; h++) {
+      depth[h] = depth[h] < -pen ? -pen : depth[h];
+    }
+  }
 
   // back to the world: W = R1 F'
   osti_boxMulMatT(W, g1->mat, F);

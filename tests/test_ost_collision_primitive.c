@@ -5,6 +5,7 @@
 // runs mj_forward, and matches d->contact with Ostrich's contacts as sets, by position.
 #include "ost_collision_box.h"
 #include "ost_collision_cylbox.h"
+#include "ost_collision_gjk.h"
 
 #include <check.h>
 #include <math.h>
@@ -718,6 +719,50 @@ START_TEST(test_box_box_resting) {
 END_TEST
 
 
+// pairs of small boxes crossed at random angles, up to 6 cm apart with a 1 cm margin (fingers of
+// a hand): boxes that are apart (GJK's distance > 0) must get no penetrating contact, and no
+// contact's distance may fall below their true distance by more than the separating-axis bound's
+// error. MuJoCo's edge routine measures an edge contact's points on a face of box 1, which put
+// points of boxes 6.8 mm apart 22 mm deep (1,185 of 37,932 separated pairs penetrating, 11.6 cm
+// at worst): Ostrich's points lie no deeper than the axis's overlap allows
+START_TEST(test_box_box_crossed) {
+  int napart = 0, nfar = 0;
+  double worst = 0;
+  for (int c = 0; c < 60000; c++) {
+    double s1[3], s2[3], p1[3] = {0, 0, 0}, p2[3], q1[4], q2[4];
+    for (int i = 0; i < 3; i++) {
+      s1[i] = urange(0.005, 0.03);
+      s2[i] = urange(0.005, 0.03);
+      p2[i] = urange(-0.06, 0.06);
+    }
+    randQuat(q1);
+    randQuat(q2);
+    ostGeom a = boxGeom(s1, p1, q1), b = boxGeom(s2, p2, q2);
+    ostContact con[OST_MAXCONPAIR];
+    int n = osti_collideBoxBox(con, &a, &b, 0.01);
+    double d, pa[3], pb[3];
+    if (!n || !osti_gjkDistance(&a, &b, &d, pa, pb) || !(d > 1e-9)) {
+      continue;
+    }
+    napart++;
+    for (int i = 0; i < n; i++) {
+      ck_assert_msg(con[i].dist >= 0, "case %d: boxes %.3g m apart, contact %d at %.3g m", c, d,
+                    i, con[i].dist);
+      worst = fmax(worst, d - con[i].dist);
+      nfar += d - con[i].dist > 1e-3;
+    }
+  }
+  ck_assert_int_ge(napart, 10000);
+  // the separating axes' bound (the largest separation over 15 axes) is below the distance
+  // where the nearest features are a corner and an edge: regression baseline (measured at most
+  // 2.5 mm, 69 contacts over 1 mm, at the time of writing)
+  ck_assert_double_lt(worst, 4e-3);
+  printf("box-box crossed: %d pairs apart within the margin, none penetrating; a contact below "
+         "the true distance by at most %.3g m (%d by over 1 mm)\n", napart, worst, nfar);
+}
+END_TEST
+
+
 // osti_makeFrame against the frames of mj_forward for tilted planes under a sphere (no hint)
 // and under a capsule (the axis as hint), including normals near the y axis
 START_TEST(test_make_frame) {
@@ -811,6 +856,7 @@ int main(void) {
   tcase_add_test(tc, test_box_box);
   tcase_add_test(tc, test_box_box_stacked);
   tcase_add_test(tc, test_box_box_resting);
+  tcase_add_test(tc, test_box_box_crossed);
   tcase_add_test(tc, test_capsule_box);
   tcase_add_test(tc, test_cylinder_box);
   suite_add_tcase(s, tc);
