@@ -2,8 +2,8 @@
 // mj_collision / mj_collideGeoms). For every candidate pair packed in the model (the broadphase
 // filter already ran once, in plugin/ost_pack.c) it prunes by bounding spheres and dispatches to
 // the pair function: analytic primitives (ost_collision_primitive.h, ost_collision_box.h),
-// Ostrich's cylinder-box and ellipsoid-box (ost_collision_cylbox.h, ost_collision_ellbox.h, not
-// MuJoCo's algorithms), MPR
+// Ostrich's cylinder-box, ellipsoid and ball pairs (ost_collision_cylbox.h, _ellipsoid.h,
+// _ball.h; not MuJoCo's algorithms), MPR
 // for general convex pairs (ost_collision_convex.h), height fields and terrain meshes
 // (ost_collision_terrain.h). Contacts go to k->contact with their pair index.
 // Invariant: pairs are visited in packed order and each pair's contacts keep the pair function's
@@ -11,10 +11,11 @@
 #ifndef OSTRICH_CORE_OST_COLLISION_H_
 #define OSTRICH_CORE_OST_COLLISION_H_
 
+#include "ost_collision_ball.h"
 #include "ost_collision_box.h"
 #include "ost_collision_convex.h"
 #include "ost_collision_cylbox.h"
-#include "ost_collision_ellbox.h"
+#include "ost_collision_ellipsoid.h"
 #include "ost_collision_terrain.h"
 #include "ost_geom.h"
 #include "ost_hd.h"
@@ -84,7 +85,8 @@ OST_HD int osti_collidePair(const ostModel* m, const ostKin* k, int p, ostContac
                                m->mpr_iterations);
   }
 
-  // analytic pairs, Ostrich's cylinder-box and ellipsoid-box, then plane vs general convex, then MPR
+  // analytic pairs, Ostrich's cylinder-box, ellipsoid and ball pairs, then plane vs general
+  // convex, then MPR
   ostContact buf[OST_MAXCONPAIR];
   int handled = 0, n = osti_collidePrimitive(buf, &a, &b, margin, &handled);
   if (!handled && a.type == OST_GEOM_CYLINDER && b.type == OST_GEOM_BOX) {
@@ -93,6 +95,19 @@ OST_HD int osti_collidePair(const ostModel* m, const ostKin* k, int p, ostContac
   }
   if (!handled && a.type == OST_GEOM_ELLIPSOID && b.type == OST_GEOM_BOX) {
     n = osti_collideEllipsoidBox(buf, &a, &b, margin, m->mpr_tolerance, m->mpr_iterations);
+    handled = 1;
+  }
+  if (!handled && a.type == OST_GEOM_SPHERE && b.type == OST_GEOM_ELLIPSOID) {
+    n = osti_collideSphereEllipsoid(buf, &a, &b, margin, m->mpr_tolerance, m->mpr_iterations);
+    handled = 1;
+  }
+  if (!handled && a.type == OST_GEOM_CAPSULE && b.type == OST_GEOM_ELLIPSOID) {
+    n = osti_collideCapsuleEllipsoid(buf, &a, &b, margin, m->mpr_tolerance, m->mpr_iterations);
+    handled = 1;
+  }
+  if (!handled && (a.type == OST_GEOM_SPHERE || a.type == OST_GEOM_CAPSULE)
+      && (b.type == OST_GEOM_CYLINDER || b.type == OST_GEOM_MESH)) {
+    n = osti_collideBallConvex(buf, &a, &b, margin, m->mpr_tolerance, m->mpr_iterations);
     handled = 1;
   }
   if (!handled) {

@@ -362,7 +362,7 @@ void ost_deleteData(mjData* d) {
 
 
 double ost_penetrationWith(const mjModel* m, const mjData* d, const ostModel* pairs,
-                           const ostNum* hfield_data) {
+                           const ostNum* hfield_data, const ostNum* mesh_vert) {
   double pen = 0;
   for (int i = 0; i < d->ncon; i++) {
     const mjContact* con = d->contact + i;
@@ -370,12 +370,12 @@ double ost_penetrationWith(const mjModel* m, const mjData* d, const ostModel* pa
       pen = -con->dist;
     }
   }
-  // core pairs (cylinder-box, height field-cylinder) by Ostrich's own functions for every
-  // engine, so that runs compare on one measure (MuJoCo's MPR depth is inexact there)
+  // core pairs (cylinder-box, ellipsoid and ball pairs, height fields) by Ostrich's own functions
+  // for every engine, so that runs compare on one measure (MuJoCo's MPR depth is inexact there)
   for (int p = 0; p < pairs->s.npair; p++) {
     ostContact con[OST_MAXCONPAIR];
-    int n = ost_collideCorePair(m, d, hfield_data, pairs->pair_geom1[p], pairs->pair_geom2[p], 0,
-                                con);
+    int n = ost_collideCorePair(m, d, hfield_data, mesh_vert, pairs->pair_geom1[p],
+                                pairs->pair_geom2[p], 0, con);
     for (int i = 0; i < n; i++) {
       pen = -con[i].dist > pen ? -con[i].dist : pen;
     }
@@ -387,14 +387,16 @@ double ost_penetrationWith(const mjModel* m, const mjData* d, const ostModel* pa
 double ost_maxPenetration(const mjModel* m, const mjData* d) {
   ostModel pairs;
   void* block = NULL;
-  ostNum* hdata = NULL;
-  int hn = 0;
-  if (ost_packCorePairs(m, &pairs, &block) != OST_OK || ost_hfieldData(m, &hdata, &hn) != OST_OK) {
+  ostNum *hdata = NULL, *vdata = NULL;
+  int hn = 0, vn = 0;
+  if (ost_packCorePairs(m, &pairs, &block) != OST_OK || ost_hfieldData(m, &hdata, &hn) != OST_OK
+      || ost_meshData(m, &vdata, &vn) != OST_OK) {
     pairs.s.npair = 0;  // out of memory: MuJoCo's contacts only
   }
-  double pen = ost_penetrationWith(m, d, &pairs, hdata);
+  double pen = ost_penetrationWith(m, d, &pairs, hdata, vdata);
   free(block);
   free(hdata);
+  free(vdata);
   return pen;
 }
 

@@ -246,14 +246,16 @@ int ost_corePair(const mjModel* m, int g1, int g2);
 void ost_mixFriction(const mjModel* m, int g1, int g2, mjtNum fr[3]);
 
 // contacts of core pair (g1, g2) of m at d's kinematics with the given margin into con (room
-// for OST_MAXCONPAIR); hfield_data: m's height-field data as ostNum (ost_hfieldData)
-int ost_collideCorePair(const mjModel* m, const mjData* d, const ostNum* hfield_data, int g1,
-                        int g2, ostNum margin, ostContact* con);
+// for OST_MAXCONPAIR); hfield_data, mesh_vert: m's height-field data and mesh vertices as
+// ostNum (ost_hfieldData, ost_meshData)
+int ost_collideCorePair(const mjModel* m, const mjData* d, const ostNum* hfield_data,
+                        const ostNum* mesh_vert, int g1, int g2, ostNum margin, ostContact* con);
 
-// deepest penetration at d's kinematics (ost_maxPenetration) with the core pairs of m and m's
-// height-field data already packed (a context's corepairs and hfield_data)
+// deepest penetration at d's kinematics (ost_maxPenetration) with the core pairs of m, m's
+// height-field data and mesh vertices already packed (a context's corepairs, hfield_data and
+// mesh_vert)
 double ost_penetrationWith(const mjModel* m, const mjData* d, const ostModel* pairs,
-                           const ostNum* hfield_data);
+                           const ostNum* hfield_data, const ostNum* mesh_vert);
 
 // m's height-field data as ostNum into *buf (reallocated to m->nhfielddata, *n its length)
 int ost_hfieldData(const mjModel* m, ostNum** buf, int* n);

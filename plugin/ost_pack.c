@@ -186,14 +186,18 @@ static void addPair(ostModel* om, int* n, const mjModel* m, int terrain, int g1,
 
 
 // 1 if geom types t1, t2 (either order) are a pair that both providers collide with core's own
-// functions: cylinder-box (ost_collision_cylbox.h), ellipsoid-box (_ellbox.h: exact where the
-// ellipsoid's deepest point lies over a face, MPR's depth is off by millimetres), height field-primitive (_terrain.h and
-// _cylsurf.h: true gaps within the look-ahead, where MuJoCo 2.2.2 reports -depth),
+// functions: cylinder-box (ost_collision_cylbox.h), ellipsoid-box, -sphere and -capsule
+// (_ellipsoid.h), sphere and capsule against cylinder and mesh (_ball.h): exact signed distances
+// where MPR's depth and normal are off; height
+// field-primitive (_terrain.h and _cylsurf.h: true gaps within the look-ahead, where MuJoCo
+// 2.2.2 reports -depth),
 // plane-mesh and plane-cylinder (ost_collision_primitive.h: contact sets that move continuously),
 // box-box (ost_collision_boxbox.h: the signed distance, where MuJoCo reports half of it)
 static int coreTypes(int t1, int t2) {
   int lo = t1 < t2 ? t1 : t2, hi = t1 < t2 ? t2 : t1;
   return ((lo == mjGEOM_CYLINDER || lo == mjGEOM_ELLIPSOID) && hi == mjGEOM_BOX)
+         || ((lo == mjGEOM_SPHERE || lo == mjGEOM_CAPSULE)
+             && (hi == mjGEOM_ELLIPSOID || hi == mjGEOM_CYLINDER || hi == mjGEOM_MESH))
          || (lo == mjGEOM_HFIELD && hi > mjGEOM_HFIELD && hi != mjGEOM_MESH)
          || (lo == mjGEOM_PLANE && (hi == mjGEOM_MESH || hi == mjGEOM_CYLINDER))
          || (lo == mjGEOM_BOX && hi == mjGEOM_BOX);

@@ -156,7 +156,8 @@ static void coreContacts(ostContext* c, const mjModel* mo, mjData* d) {
   for (int p = 0; p < cp->s.npair; p++) {
     ostContact found[OST_MAXCONPAIR];
     int g1 = cp->pair_geom1[p], g2 = cp->pair_geom2[p];
-    int nfound = ost_collideCorePair(mo, d, c->hfield_data, g1, g2, cp->pair_margin[p], found);
+    int nfound = ost_collideCorePair(mo, d, c->hfield_data, c->mesh_vert, g1, g2,
+                                     cp->pair_margin[p], found);
     for (int k = 0; k < nfound; k++) {
       if (d->ncon >= mo->nconmax) {
         mj_warning(d, mjWARN_CONTACTFULL, d->ncon);

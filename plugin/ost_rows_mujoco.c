@@ -9,9 +9,10 @@
 #include <stdio.h>
 #include <string.h>
 
+#include "ost_collision_ball.h"
 #include "ost_collision_boxbox.h"
 #include "ost_collision_cylbox.h"
-#include "ost_collision_ellbox.h"
+#include "ost_collision_ellipsoid.h"
 #include "ost_collision_gjk.h"
 #include "ost_collision_terrain.h"
 #include "ost_internal.h"
@@ -263,8 +264,8 @@ int ost_meshData(const mjModel* m, ostNum** buf, int* n) {
 }
 
 
-int ost_collideCorePair(const mjModel* m, const mjData* d, const ostNum* hfield_data, int g1,
-                        int g2, ostNum margin, ostContact* con) {
+int ost_collideCorePair(const mjModel* m, const mjData* d, const ostNum* hfield_data,
+                        const ostNum* mesh_vert, int g1, int g2, ostNum margin, ostContact* con) {
   ostGeom a, b;
   if (m->geom_type[g1] > m->geom_type[g2]) {
     int t = g1;
@@ -310,6 +311,23 @@ int ost_collideCorePair(const mjModel* m, const mjData* d, const ostNum* hfield_
   if (a.type == mjGEOM_ELLIPSOID) {
     return osti_collideEllipsoidBox(con, &a, &b, margin, m->opt.mpr_tolerance,
                                     m->opt.mpr_iterations);
+  }
+  if ((a.type == mjGEOM_SPHERE || a.type == mjGEOM_CAPSULE)
+      && (b.type == mjGEOM_CYLINDER || b.type == mjGEOM_MESH)) {
+    if (b.type == mjGEOM_MESH) {
+      int id = m->geom_dataid[g2];
+      b.nvert = m->mesh_vertnum[id];
+      b.vert = mesh_vert + 3 * (size_t)m->mesh_vertadr[id];
+    }
+    return osti_collideBallConvex(con, &a, &b, margin, m->opt.mpr_tolerance,
+                                  m->opt.mpr_iterations);
+  }
+  if (b.type == mjGEOM_ELLIPSOID) {
+    return a.type == mjGEOM_SPHERE
+           ? osti_collideSphereEllipsoid(con, &a, &b, margin, m->opt.mpr_tolerance,
+                                         m->opt.mpr_iterations)
+           : osti_collideCapsuleEllipsoid(con, &a, &b, margin, m->opt.mpr_tolerance,
+                                          m->opt.mpr_iterations);
   }
   return osti_collideCylinderBox(con, &a, &b, margin);
 }
@@ -488,7 +506,8 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
   for (int p = 0; p < cp->s.npair; p++) {
     ostContact con[OST_MAXCONPAIR];
     int g1 = cp->pair_geom1[p], g2 = cp->pair_geom2[p];
-    int ncon = ost_collideCorePair(m, d, c->hfield_data, g1, g2, cp->pair_margin[p], con);
+    int ncon = ost_collideCorePair(m, d, c->hfield_data, c->mesh_vert, g1, g2, cp->pair_margin[p],
+                                   con);
     mjtNum fr[3] = {cp->pair_friction[p], cp->pair_torsion[p], cp->pair_rolling[p]};
     for (int i = 0; i < ncon; i++) {
       mjtNum pos = con[i].dist - (cp->pair_margin[p] - cp->pair_gap[p]) + c->opt.margin;

@@ -824,7 +824,8 @@ static int step2(ostContext* c, const mjModel* m, mjData* d, int synced) {
     c->stats.max_penetration = pen;
   } else {
     // MuJoCo's contacts, and the core pairs this step packed (ost_prepareContext)
-    c->stats.max_penetration = ost_penetrationWith(m, d, &c->corepairs, c->hfield_data);
+    c->stats.max_penetration = ost_penetrationWith(m, d, &c->corepairs, c->hfield_data,
+                                                   c->mesh_vert);
   }
   // a step whose committed substeps did not all reach tol is taken, but says so, also to a
   // caller that prints ost_lastError

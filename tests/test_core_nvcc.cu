@@ -2,10 +2,11 @@
 // callable from a kernel (host+device inline): the solver, and the native geometry provider
 // (kinematics, dynamics, collision of every pair type, rows). Compiled, not run, in CI.
 #include "ost_collision.h"
+#include "ost_collision_ball.h"
 #include "ost_collision_box.h"
 #include "ost_collision_boxbox.h"
 #include "ost_collision_convex.h"
-#include "ost_collision_ellbox.h"
+#include "ost_collision_ellipsoid.h"
 #include "ost_collision_epa.h"
 #include "ost_collision_gjk.h"
 #include "ost_collision_mpr.h"

@@ -571,7 +571,7 @@ START_TEST(test_palletTop) {
 END_TEST
 
 
-// an ellipsoid (a free body) about a box (core/ost_collision_ellbox.h) with its nearest box
+// an ellipsoid (a free body) about a box (core/ost_collision_ellipsoid.h) with its nearest box
 // feature a face, an edge and a corner, turned about two axes, overlapping or within the 1 cm
 // margin: one contact each, whose dist, frame and pos come from a closed form (face) or the root
 // of the secular equation (edge, corner), differentiated through its last Newton steps
@@ -599,6 +599,39 @@ START_TEST(test_ellipsoidBox) {
 END_TEST
 
 
+// a capsule (a free body) about a fixed ellipsoid, then about a fixed cylinder and a fixed cube
+// mesh (core/ost_collision_ellipsoid.h, _ball.h), turned, overlapping or within the 1 cm
+// margin: one contact each, through the secular root and the bisection's last Newton step
+// (ellipsoid) or GJK's last simplex (cylinder, mesh)
+START_TEST(test_capsulePairs) {
+  ost_fixtureSetup();
+  const char* others[3] = {
+      "<geom type='ellipsoid' size='0.03 0.04 0.02' margin='0.01'/>",
+      "<geom type='cylinder' size='0.03 0.02' margin='0.01'/>",
+      "<geom type='mesh' mesh='cube' margin='0.01'/>"};
+  const char* label[3] = {"capsule:ellipsoid", "capsule:cylinder", "capsule:mesh"};
+  const double place[3][3] = {{0.01, 0.004, 0.034}, {0.012, 0.005, 0.026}, {0.01, 0.004, 0.036}};
+  for (int o = 0; o < 3; o++) {
+    char xml[1024];
+    snprintf(xml, sizeof(xml),
+             "<mujoco><asset><mesh name='cube' vertex='-.025 -.025 -.025 .025 -.025 -.025 "
+             "-.025 .025 -.025 .025 .025 -.025 -.025 -.025 .025 .025 -.025 .025 -.025 .025 .025 "
+             ".025 .025 .025'/></asset><worldbody>%s<body><freejoint/>"
+             "<geom type='capsule' size='0.01 0.02' margin='0.01'/></body></worldbody></mujoco>",
+             others[o]);
+    Packed p(ost_fixtureLoadString(xml));
+    std::vector<mjtNum> qpos(p.m->nq);
+    mjtNum qx[4] = {cos(0.5), sin(0.5), 0, 0}, qz[4] = {cos(0.3), 0, 0, sin(0.3)};
+    for (int k = 0; k < 3; k++) qpos[k] = place[o][k];
+    mju_mulQuat(qpos.data() + 3, qz, qx);
+    Agreement a[2];
+    ck_assert_int_eq(checkContacts(&p, qpos.data(), a), 1);
+    report(label[o], a[1], cname, 0, NC, TOL_CON);
+  }
+}
+END_TEST
+
+
 int main(void) {
   Suite* s = suite_create("ost_dual");
   TCase* tc = tcase_create("dual");
@@ -611,6 +644,7 @@ int main(void) {
   tcase_add_test(tc, test_palletEdge);
   tcase_add_test(tc, test_palletTop);
   tcase_add_test(tc, test_ellipsoidBox);
+  tcase_add_test(tc, test_capsulePairs);
   suite_add_tcase(s, tc);
   return ost_fixtureRun(s);
 }

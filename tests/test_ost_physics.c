@@ -144,7 +144,7 @@ END_TEST
 // h = 2 and 20 ms, and the step, hard backward Euler, must never add mechanical energy (kinetic
 // plus gravitational: contacts and friction only take it away). MuJoCo 2.2.2 collides this pair
 // by MPR on the look-ahead-inflated shapes (the normal 4 degrees off at rest,
-// core/ost_collision_ellbox.h), which left 5 (mujoco provider) and 7 (native) of the 500 steps
+// core/ost_collision_ellipsoid.h), which left 5 (mujoco provider) and 7 (native) of the 500 steps
 // at 2 ms unconverged
 START_TEST(test_ellipsoidsOnBoxConverge) {
   ost_fixtureSetup();

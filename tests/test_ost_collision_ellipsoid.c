@@ -1,4 +1,6 @@
-// test_ost_collision_ellbox.c: the ellipsoid : box contact (core/ost_collision_ellbox.h) against
+// test_ost_collision_ellipsoid.c: the ellipsoid's contacts (core/ost_collision_ellipsoid.h): a
+// sphere and a capsule against closed forms (a round ellipsoid) and against GJK and EPA with
+// first-order rates (test_ellball); the box (the rest) against
 // (a) closed forms: a round ellipsoid (a ball) at any place around and inside a box, where the
 //     signed distance is |c - clamp(c)| - r outside and -(min_i (e_i - |c_i|) + r) inside, and
 //     an ellipsoid resting 5e-8 m deep on a face (the Allegro hand's object on its palm);
@@ -9,7 +11,7 @@
 // (d) the property a Newton iteration on the gap needs, by central differences: under a rigid
 //     motion of either geom the distance changes by n.(dx_box - dx_ellipsoid) at the witnesses.
 #define _GNU_SOURCE  // drand48
-#include "ost_collision_ellbox.h"
+#include "ost_collision_ellipsoid.h"
 
 #include <check.h>
 #include <math.h>
@@ -238,7 +240,7 @@ START_TEST(test_ellbox_gjk_epa) {
 END_TEST
 
 
-//---------------------------------- (c) continuity -------------------------------------------------
+//---------------------------------- (c) continuity ------------------------------------------------
 
 START_TEST(test_ellbox_lipschitz) {
   // sweeps of the ellipsoid's centre over a box's top, across its edges and past its corners,
@@ -271,7 +273,8 @@ START_TEST(test_ellbox_lipschitz) {
         worst = fmax(worst, dd / step);
         ck_assert_msg(dd <= step * (1 + 1e-6), "sweep %d step %d: dist %.12g -> %.12g", rep, i,
                       last.dist, con.dist);
-        ck_assert_msg(con.dist < -0.25 * rmin || dn <= 2 * step / rho, "sweep %d step %d: normal turned by %g (dist %g)",
+        ck_assert_msg(con.dist < -0.25 * rmin || dn <= 2 * step / rho,
+                      "sweep %d step %d: normal turned by %g (dist %g)",
                       rep, i, dn, con.dist);
       }
       last = con;
@@ -340,15 +343,108 @@ START_TEST(test_ellbox_first_order) {
 END_TEST
 
 
+//---------------------------------- sphere and capsule --------------------------------------------
+
+// the contact of a sphere or capsule g1 with ellipsoid e (exactly one)
+static ostContact ballContact(const ostGeom* g1, const ostGeom* e) {
+  ostContact con;
+  int n = g1->type == OST_GEOM_SPHERE
+          ? osti_collideSphereEllipsoid(&con, g1, e, BIG_MARGIN, 1e-6, 50)
+          : osti_collideCapsuleEllipsoid(&con, g1, e, BIG_MARGIN, 1e-6, 50);
+  ck_assert_int_eq(n, 1);
+  return con;
+}
+
+
+// spheres and capsules about an ellipsoid: (a) about a round one (a ball of radius R), the
+// closed form |core point - centre| - r - R; (b) about random ones, GJK's distance where apart,
+// EPA's certified depth where they overlap (its core route: exact); (c) under rigid motions of
+// either, the distance's rate n.(dx_ellipsoid - dx_ball) at the witnesses
+START_TEST(test_ellball) {
+  srand48(13);
+  double worst_cf = 0, worst_gjk = 0, worst_epa = 0, worst_rate = 0;
+  int napart = 0, nover = 0, nrate = 0;
+  for (int rep = 0; rep < 6000; rep++) {
+    ostGeom g, e, gp, gm;
+    int capsule = rep % 2, round = rep % 3 == 0;
+    geom(&g, capsule ? OST_GEOM_CAPSULE : OST_GEOM_SPHERE, urand(0.005, 0.03), urand(0.01, 0.05),
+         0);
+    double R = urand(0.02, 0.08);
+    geom(&e, OST_GEOM_ELLIPSOID, R, round ? R : urand(0.02, 0.08), round ? R : urand(0.02, 0.08));
+    randMat(g.mat);
+    randMat(e.mat);
+    for (int k = 0; k < 3; k++) g.pos[k] = urand(-0.12, 0.12);
+    double size = fmax(fmax(e.size[0], e.size[1]), e.size[2]);
+    ostContact con = ballContact(&g, &e);
+    if (round) {
+      // the core point nearest the centre: the centre's projection onto the segment, clamped
+      double ax[3] = {g.mat[2], g.mat[5], g.mat[8]}, dc[3], t = 0;
+      for (int k = 0; k < 3; k++) dc[k] = e.pos[k] - g.pos[k];
+      if (capsule) t = fmin(fmax(mju_dot3(dc, ax), -g.size[1]), g.size[1]);
+      for (int k = 0; k < 3; k++) dc[k] -= t * ax[k];
+      double expect = mju_norm3(dc) - g.size[0] - R;
+      worst_cf = fmax(worst_cf, fabs(con.dist - expect));
+      ck_assert_msg(fabs(con.dist - expect) < 1e-12, "rep %d: dist %.15g, closed form %.15g",
+                    rep, con.dist, expect);
+      continue;
+    }
+    double d, pa[3], pb[3], n[3];
+    if (osti_gjkDistance(&g, &e, &d, pa, pb) && d > 1e-6) {
+      worst_gjk = fmax(worst_gjk, fabs(con.dist - d) / size);
+      ck_assert_msg(fabs(con.dist - d) < 1e-9 * size, "rep %d: dist %.15g, GJK %.15g", rep,
+                    con.dist, d);
+      napart++;
+    } else if (osti_epaPenetration(&g, &e, &d, n, pa, pb, NULL) == 1 && d > 1e-6
+               && d < g.size[0]) {
+      worst_epa = fmax(worst_epa, fabs(con.dist + d) / size);
+      ck_assert_msg(fabs(con.dist + d) < 1e-9 * size, "rep %d: dist %.15g, EPA -%.15g", rep,
+                    con.dist, d);
+      nover++;
+    } else {
+      continue;
+    }
+    // first order: move the ball (which = 0) or the ellipsoid (1) along a random twist
+    const double eps = 1e-6;
+    double v[3] = {urand(-1, 1), urand(-1, 1), urand(-1, 1)};
+    double w[3] = {urand(-3, 3), urand(-3, 3), urand(-3, 3)};
+    int which = rep % 4 < 2;
+    const ostGeom* mv = which ? &e : &g;
+    moveGeom(&gp, mv, v, w, eps);
+    moveGeom(&gm, mv, v, w, -eps);
+    ostContact cp = which ? ballContact(&g, &gp) : ballContact(&gp, &e);
+    ostContact cm = which ? ballContact(&g, &gm) : ballContact(&gm, &e);
+    double p[3];  // the witness on the moved geom: pos -+ dist/2 along the normal (ball -> ell.)
+    for (int k = 0; k < 3; k++) p[k] = con.pos[k] + (which ? 0.5 : -0.5) * con.dist * con.frame[k];
+    double r[3] = {p[0] - mv->pos[0], p[1] - mv->pos[1], p[2] - mv->pos[2]}, wr[3];
+    mju_cross(wr, w, r);
+    double pv[3] = {v[0] + wr[0], v[1] + wr[1], v[2] + wr[2]};
+    double pred = (which ? 1 : -1) * mju_dot3(con.frame, pv);
+    double rate = (cp.dist - cm.dist) / (2 * eps);
+    double scale = mju_norm3(v) + mju_norm3(w) * mju_norm3(r);
+    double err = fabs(rate - pred) / scale;
+    worst_rate = fmax(worst_rate, err);
+    ck_assert_msg(err < 1e-6, "rep %d: d(dist)/dt %.12g, n.(dx_e - dx_b) %.12g", rep, rate, pred);
+    nrate++;
+  }
+  ck_assert_int_ge(napart, 1000);
+  ck_assert_int_ge(nover, 200);
+  printf("sphere and capsule about an ellipsoid: closed form %.3g m; against GJK (%d apart) %.3g "
+         "and EPA (%d overlapping) %.3g of the size; first-order rate %.3g (%d motions)\n",
+         worst_cf, napart, worst_gjk, nover, worst_epa, worst_rate, nrate);
+}
+END_TEST
+
+
 int main(void) {
-  Suite* s = suite_create("ost_collision_ellbox");
-  TCase* tc = tcase_create("ellbox");
+  Suite* s = suite_create("ost_collision_ellipsoid");
+  TCase* tc = tcase_create("ellipsoid");
   tcase_set_timeout(tc, 120);
   tcase_add_test(tc, test_ellbox_ball);
   tcase_add_test(tc, test_ellbox_resting);
   tcase_add_test(tc, test_ellbox_gjk_epa);
   tcase_add_test(tc, test_ellbox_lipschitz);
   tcase_add_test(tc, test_ellbox_first_order);
+  tcase_add_test(tc, test_ellball);
   suite_add_tcase(s, tc);
   SRunner* sr = srunner_create(s);
   srunner_run_all(sr, CK_NORMAL);

@@ -1,0 +1,243 @@
+// test_ost_collision_ball.c: spheres and capsules against cylinders and convex meshes by GJK on
+// their cores (core/ost_collision_ball.h), against (a) closed forms: a sphere about a cube mesh
+// (|c - clamp(c)| - r) and about a cylinder (the point-cylinder distance minus r); (b) GJK on
+// the whole capsule where apart; (c) a capsule lying along a face: held at both ends; (d) the
+// first-order property a Newton iteration on the gap needs: under rigid motions of either geom
+// the distance changes by n.(dx_2 - dx_1) at the witnesses.
+#define _GNU_SOURCE  // drand48
+#include "ost_collision_ball.h"
+
+#include <check.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <mujoco/mujoco.h>
+
+#define BIG_MARGIN 1e3  // report contacts at any distance
+
+static double urand(double a, double b) {
+  return a + (b - a) * drand48();
+}
+
+
+static void randMat(double mat[9]) {
+  double q[4], n = 0;
+  while (n < 1e-3) {
+    for (int i = 0; i < 4; i++) q[i] = urand(-1, 1);
+    n = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+  }
+  for (int i = 0; i < 4; i++) q[i] /= n;
+  mju_quat2Mat(mat, q);
+}
+
+
+static void geom(ostGeom* g, int type, double sx, double sy, double sz) {
+  memset(g, 0, sizeof(*g));
+  g->type = type;
+  g->size[0] = sx;
+  g->size[1] = sy;
+  g->size[2] = sz;
+  g->mat[0] = g->mat[4] = g->mat[8] = 1;
+}
+
+
+// a cube mesh of half size e (its 8 corners) into vert, as geom g
+static void cube(ostGeom* g, double e, double vert[24]) {
+  geom(g, OST_GEOM_MESH, e, e, e);
+  for (int v = 0; v < 8; v++) {
+    for (int k = 0; k < 3; k++) vert[3 * v + k] = (v >> k & 1 ? 1 : -1) * e;
+  }
+  g->nvert = 8;
+  g->vert = vert;
+}
+
+
+// the deepest (least dist) contact of ball g1 : g2; *n gets the count
+static ostContact deepest(const ostGeom* g1, const ostGeom* g2, int* n) {
+  ostContact con[OST_MAXCONPAIR];
+  *n = osti_collideBallConvex(con, g1, g2, BIG_MARGIN, 1e-6, 50);
+  ck_assert_int_ge(*n, 1);
+  int best = 0;
+  for (int i = 1; i < *n; i++) best = con[i].dist < con[best].dist ? i : best;
+  return con[best];
+}
+
+
+START_TEST(test_ball_closed_forms) {
+  srand48(21);
+  double worst_mesh = 0, worst_cyl = 0, worst_gjk = 0;
+  int ncase = 0;
+  for (int rep = 0; rep < 6000; rep++) {
+    double vert[24];
+    ostGeom s, m, c;
+    double r = urand(0.005, 0.03), e = urand(0.02, 0.08);
+    geom(&s, OST_GEOM_SPHERE, r, 0, 0);
+    cube(&m, e, vert);
+    for (int k = 0; k < 3; k++) s.pos[k] = urand(-2, 2) * e;
+    double cl[3], dif[3];
+    for (int k = 0; k < 3; k++) {
+      cl[k] = fmin(fmax(s.pos[k], -e), e);
+      dif[k] = s.pos[k] - cl[k];
+    }
+    double D = mju_norm3(dif);
+    if (D > 1e-2 * r) {  // the centre outside the cube: the core's route
+      int n;
+      ostContact con = deepest(&s, &m, &n);
+      worst_mesh = fmax(worst_mesh, fabs(con.dist - (D - r)));
+      ck_assert_msg(fabs(con.dist - (D - r)) < 1e-12, "sphere-cube rep %d: %.15g vs %.15g", rep,
+                    con.dist, D - r);
+      ncase++;
+    }
+    // a sphere about a cylinder (radius R, half length hl), in the cylinder's frame
+    double R = urand(0.01, 0.05), hl = urand(0.01, 0.05);
+    geom(&c, OST_GEOM_CYLINDER, R, hl, 0);
+    for (int k = 0; k < 3; k++) s.pos[k] = urand(-2.5, 2.5) * (k < 2 ? R : hl);
+    double rho = hypot(s.pos[0], s.pos[1]), z = fabs(s.pos[2]), Dc;
+    if (z <= hl) {
+      Dc = rho - R;
+    } else if (rho <= R) {
+      Dc = z - hl;
+    } else {
+      Dc = hypot(rho - R, z - hl);
+    }
+    if (Dc > 1e-2 * r) {
+      int n;
+      ostContact con = deepest(&s, &c, &n);
+      worst_cyl = fmax(worst_cyl, fabs(con.dist - (Dc - r)));
+      // GJK on a curved side converges to its tolerance (1e-10 of the size)
+      ck_assert_msg(fabs(con.dist - (Dc - r)) < 1e-9, "sphere-cylinder rep %d: %.15g vs %.15g",
+                    rep, con.dist, Dc - r);
+    }
+    // a capsule about a turned cube mesh, apart: GJK on the whole capsule
+    ostGeom cap;
+    geom(&cap, OST_GEOM_CAPSULE, r, urand(0.01, 0.05), 0);
+    randMat(cap.mat);
+    randMat(m.mat);
+    for (int k = 0; k < 3; k++) cap.pos[k] = urand(-0.15, 0.15);
+    double d, pa[3], pb[3];
+    if (osti_gjkDistance(&cap, &m, &d, pa, pb) && d > 1e-6) {
+      int n;
+      ostContact con = deepest(&cap, &m, &n);
+      worst_gjk = fmax(worst_gjk, fabs(con.dist - d));
+      ck_assert_msg(fabs(con.dist - d) < 1e-10, "capsule-cube rep %d: %.15g vs GJK %.15g", rep,
+                    con.dist, d);
+    }
+  }
+  ck_assert_int_ge(ncase, 3000);
+  printf("sphere about a cube mesh: %.3g m; about a cylinder: %.3g m; capsule about a cube, "
+         "against GJK: %.3g m\n", worst_mesh, worst_cyl, worst_gjk);
+}
+END_TEST
+
+
+// a capsule lying 1 mm above a cube mesh's top face, tilted by under OST_BALL_PARALLEL: its two
+// end balls are contacts, each at its own height (a single witness would slide along the face)
+START_TEST(test_ball_capsule_lying) {
+  double vert[24];
+  ostGeom cap, m;
+  cube(&m, 0.1, vert);
+  geom(&cap, OST_GEOM_CAPSULE, 0.01, 0.04, 0);
+  double ax[3] = {1, 0, 0.02}, q[4];
+  mju_normalize3(ax);
+  // the capsule's z axis along ax
+  double zz[3] = {0, 0, 1}, c[3];
+  mju_cross(c, zz, ax);
+  double ang = acos(mju_dot3(zz, ax));
+  mju_normalize3(c);
+  mju_axisAngle2Quat(q, c, ang);
+  mju_quat2Mat(cap.mat, q);
+  cap.pos[0] = 0.01;
+  cap.pos[2] = 0.1 + 0.01 + 1e-3;
+  ostContact con[OST_MAXCONPAIR];
+  int n = osti_collideBallConvex(con, &cap, &m, 0.01, 1e-6, 50);
+  ck_assert_int_ge(n, 2);
+  for (int e = -1; e <= 1; e += 2) {
+    double end = cap.pos[2] + e * 0.04 * ax[2] - 0.01 - 0.1, found = 0;
+    for (int i = 0; i < n; i++) found += fabs(con[i].dist - end) < 1e-12;
+    ck_assert_msg(found >= 1, "no contact at the end %+d's height %g", e, end);
+  }
+  for (int i = 0; i < n; i++) ck_assert_double_eq_tol(con[i].frame[2], -1, 1e-12);
+}
+END_TEST
+
+
+START_TEST(test_ball_first_order) {
+  srand48(23);
+  const double eps = 1e-6;
+  double worst = 0;
+  int ncase = 0;
+  for (int rep = 0; rep < 4000; rep++) {
+    double vert[24];
+    ostGeom b, g, gp, gm;
+    geom(&b, rep % 2 ? OST_GEOM_CAPSULE : OST_GEOM_SPHERE, urand(0.005, 0.03), urand(0.01, 0.05),
+         0);
+    if (rep % 4 < 2) {
+      cube(&g, urand(0.02, 0.08), vert);
+    } else {
+      geom(&g, OST_GEOM_CYLINDER, urand(0.01, 0.05), urand(0.01, 0.05), 0);
+    }
+    randMat(b.mat);
+    randMat(g.mat);
+    for (int k = 0; k < 3; k++) b.pos[k] = urand(-0.12, 0.12);
+    int n;
+    ostContact con = deepest(&b, &g, &n);
+    if (n != 1 || con.dist < -0.5 * b.size[0]) {
+      continue;  // several contacts (lying along a face) or deep
+    }
+    double v[3] = {urand(-1, 1), urand(-1, 1), urand(-1, 1)};
+    double w[3] = {urand(-3, 3), urand(-3, 3), urand(-3, 3)};
+    int which = rep % 8 < 4;
+    const ostGeom* mv = which ? &g : &b;
+    double q[4], rot[9], ax[3] = {w[0], w[1], w[2]};
+    mju_normalize3(ax);
+    for (int s = -1; s <= 1; s += 2) {
+      ostGeom* out = s > 0 ? &gp : &gm;
+      *out = *mv;
+      mju_axisAngle2Quat(q, ax, s * eps * mju_norm3(w));
+      mju_quat2Mat(rot, q);
+      mju_mulMatMat(out->mat, rot, mv->mat, 3, 3, 3);
+      for (int k = 0; k < 3; k++) out->pos[k] = mv->pos[k] + s * eps * v[k];
+    }
+    int np, nm;
+    ostContact cp = which ? deepest(&b, &gp, &np) : deepest(&gp, &g, &np);
+    ostContact cm = which ? deepest(&b, &gm, &nm) : deepest(&gm, &g, &nm);
+    double p[3];
+    for (int k = 0; k < 3; k++) p[k] = con.pos[k] + (which ? 0.5 : -0.5) * con.dist * con.frame[k];
+    double r[3] = {p[0] - mv->pos[0], p[1] - mv->pos[1], p[2] - mv->pos[2]}, wr[3];
+    mju_cross(wr, w, r);
+    double pv[3] = {v[0] + wr[0], v[1] + wr[1], v[2] + wr[2]};
+    double pred = (which ? 1 : -1) * mju_dot3(con.frame, pv);
+    double scale = mju_norm3(v) + mju_norm3(w) * mju_norm3(r);
+    double right = (cp.dist - con.dist) / eps, left = (con.dist - cm.dist) / eps;
+    if (fabs(right - left) > 1e-4 * scale) {
+      continue;  // a kink: the nearest features change within eps
+    }
+    double err = fabs((cp.dist - cm.dist) / (2 * eps) - pred) / scale;
+    worst = fmax(worst, err);
+    // GJK's tolerance on a curved side (1e-10 of the size) over eps bounds the differences
+    ck_assert_msg(err < 1e-4, "rep %d: rate %.12g, n.(dx_2 - dx_1) %.12g", rep,
+                  (cp.dist - cm.dist) / (2 * eps), pred);
+    ncase++;
+  }
+  ck_assert_int_ge(ncase, 1500);
+  printf("ball pairs first order: %d motions, relative rate error at most %.3g\n", ncase, worst);
+}
+END_TEST
+
+
+int main(void) {
+  Suite* s = suite_create("ost_collision_ball");
+  TCase* tc = tcase_create("ball");
+  tcase_set_timeout(tc, 120);
+  tcase_add_test(tc, test_ball_closed_forms);
+  tcase_add_test(tc, test_ball_capsule_lying);
+  tcase_add_test(tc, test_ball_first_order);
+  suite_add_tcase(s, tc);
+  SRunner* sr = srunner_create(s);
+  srunner_run_all(sr, CK_NORMAL);
+  int nfailed = srunner_ntests_failed(sr);
+  srunner_free(sr);
+  return nfailed ? EXIT_FAILURE : EXIT_SUCCESS;
+}
