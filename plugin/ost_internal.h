@@ -219,7 +219,8 @@ void ost_refineConvexContacts(const mjModel* m, mjData* d, const ostNum* mesh_ve
 // MuJoCo 2.2.2's mj_collision makes them after a collision function returned the normal
 void ost_contactFrame(mjtNum frame[9]);
 
-// m's mesh vertices as ostNum in *buf (3 nmeshvert), reallocated when the size changed
+// m's mesh vertices as ostNum in *buf (3 nmeshvert), reallocated when the size changed; a mesh
+// with a convex hull lists the hull's vertices first in its slot (support points search those)
 int ost_meshData(const mjModel* m, ostNum** buf, int* n);
 
 // tendon t's Jacobian row of d into the dense row J (nv), whether MuJoCo stores it sparse or not
