@@ -15,37 +15,14 @@
 
 #include <mujoco/mujoco.h>
 
+#include "fixture_geom.h"
+
 #define BIG_MARGIN 1e3  // report contacts at any distance
-
-static double urand(double a, double b) {
-  return a + (b - a) * drand48();
-}
-
-
-static void randMat(double mat[9]) {
-  double q[4], n = 0;
-  while (n < 1e-3) {
-    for (int i = 0; i < 4; i++) q[i] = urand(-1, 1);
-    n = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-  }
-  for (int i = 0; i < 4; i++) q[i] /= n;
-  mju_quat2Mat(mat, q);
-}
-
-
-static void geom(ostGeom* g, int type, double sx, double sy, double sz) {
-  memset(g, 0, sizeof(*g));
-  g->type = type;
-  g->size[0] = sx;
-  g->size[1] = sy;
-  g->size[2] = sz;
-  g->mat[0] = g->mat[4] = g->mat[8] = 1;
-}
 
 
 // a cube mesh of half size e (its 8 corners) into vert, as geom g
 static void cube(ostGeom* g, double e, double vert[24]) {
-  geom(g, OST_GEOM_MESH, e, e, e);
+  ost_fixtureGeom(g, OST_GEOM_MESH, e, e, e);
   for (int v = 0; v < 8; v++) {
     for (int k = 0; k < 3; k++) vert[3 * v + k] = (v >> k & 1 ? 1 : -1) * e;
   }
@@ -72,10 +49,10 @@ START_TEST(test_ball_closed_forms) {
   for (int rep = 0; rep < 6000; rep++) {
     double vert[24];
     ostGeom s, m, c;
-    double r = urand(0.005, 0.03), e = urand(0.02, 0.08);
-    geom(&s, OST_GEOM_SPHERE, r, 0, 0);
+    double r = ost_fixtureUniform(0.005, 0.03), e = ost_fixtureUniform(0.02, 0.08);
+    ost_fixtureGeom(&s, OST_GEOM_SPHERE, r, 0, 0);
     cube(&m, e, vert);
-    for (int k = 0; k < 3; k++) s.pos[k] = urand(-2, 2) * e;
+    for (int k = 0; k < 3; k++) s.pos[k] = ost_fixtureUniform(-2, 2) * e;
     double cl[3], dif[3];
     for (int k = 0; k < 3; k++) {
       cl[k] = fmin(fmax(s.pos[k], -e), e);
@@ -91,9 +68,9 @@ START_TEST(test_ball_closed_forms) {
       ncase++;
     }
     // a sphere about a cylinder (radius R, half length hl), in the cylinder's frame
-    double R = urand(0.01, 0.05), hl = urand(0.01, 0.05);
-    geom(&c, OST_GEOM_CYLINDER, R, hl, 0);
-    for (int k = 0; k < 3; k++) s.pos[k] = urand(-2.5, 2.5) * (k < 2 ? R : hl);
+    double R = ost_fixtureUniform(0.01, 0.05), hl = ost_fixtureUniform(0.01, 0.05);
+    ost_fixtureGeom(&c, OST_GEOM_CYLINDER, R, hl, 0);
+    for (int k = 0; k < 3; k++) s.pos[k] = ost_fixtureUniform(-2.5, 2.5) * (k < 2 ? R : hl);
     double rho = hypot(s.pos[0], s.pos[1]), z = fabs(s.pos[2]), Dc;
     if (z <= hl) {
       Dc = rho - R;
@@ -112,10 +89,10 @@ START_TEST(test_ball_closed_forms) {
     }
     // a capsule about a turned cube mesh, apart: GJK on the whole capsule
     ostGeom cap;
-    geom(&cap, OST_GEOM_CAPSULE, r, urand(0.01, 0.05), 0);
-    randMat(cap.mat);
-    randMat(m.mat);
-    for (int k = 0; k < 3; k++) cap.pos[k] = urand(-0.15, 0.15);
+    ost_fixtureGeom(&cap, OST_GEOM_CAPSULE, r, ost_fixtureUniform(0.01, 0.05), 0);
+    ost_fixtureRandMat(cap.mat);
+    ost_fixtureRandMat(m.mat);
+    for (int k = 0; k < 3; k++) cap.pos[k] = ost_fixtureUniform(-0.15, 0.15);
     double d, pa[3], pb[3];
     if (osti_gjkDistance(&cap, &m, &d, pa, pb) && d > 1e-6) {
       int n;
@@ -138,7 +115,7 @@ START_TEST(test_ball_capsule_lying) {
   double vert[24];
   ostGeom cap, m;
   cube(&m, 0.1, vert);
-  geom(&cap, OST_GEOM_CAPSULE, 0.01, 0.04, 0);
+  ost_fixtureGeom(&cap, OST_GEOM_CAPSULE, 0.01, 0.04, 0);
   double ax[3] = {1, 0, 0.02}, q[4];
   mju_normalize3(ax);
   // the capsule's z axis along ax
@@ -171,45 +148,35 @@ START_TEST(test_ball_first_order) {
   for (int rep = 0; rep < 4000; rep++) {
     double vert[24];
     ostGeom b, g, gp, gm;
-    geom(&b, rep % 2 ? OST_GEOM_CAPSULE : OST_GEOM_SPHERE, urand(0.005, 0.03), urand(0.01, 0.05),
-         0);
+    ost_fixtureGeom(&b, rep % 2 ? OST_GEOM_CAPSULE : OST_GEOM_SPHERE,
+                    ost_fixtureUniform(0.005, 0.03), ost_fixtureUniform(0.01, 0.05), 0);
     if (rep % 4 < 2) {
-      cube(&g, urand(0.02, 0.08), vert);
+      cube(&g, ost_fixtureUniform(0.02, 0.08), vert);
     } else {
-      geom(&g, OST_GEOM_CYLINDER, urand(0.01, 0.05), urand(0.01, 0.05), 0);
+      ost_fixtureGeom(&g, OST_GEOM_CYLINDER, ost_fixtureUniform(0.01, 0.05),
+                      ost_fixtureUniform(0.01, 0.05), 0);
     }
-    randMat(b.mat);
-    randMat(g.mat);
-    for (int k = 0; k < 3; k++) b.pos[k] = urand(-0.12, 0.12);
+    ost_fixtureRandMat(b.mat);
+    ost_fixtureRandMat(g.mat);
+    for (int k = 0; k < 3; k++) b.pos[k] = ost_fixtureUniform(-0.12, 0.12);
     int n;
     ostContact con = deepest(&b, &g, &n);
     if (n != 1 || con.dist < -0.5 * b.size[0]) {
       continue;  // several contacts (lying along a face) or deep
     }
-    double v[3] = {urand(-1, 1), urand(-1, 1), urand(-1, 1)};
-    double w[3] = {urand(-3, 3), urand(-3, 3), urand(-3, 3)};
+    double v[3] = {ost_fixtureUniform(-1, 1), ost_fixtureUniform(-1, 1), ost_fixtureUniform(-1, 1)};
+    double w[3] = {ost_fixtureUniform(-3, 3), ost_fixtureUniform(-3, 3), ost_fixtureUniform(-3, 3)};
     int which = rep % 8 < 4;
     const ostGeom* mv = which ? &g : &b;
-    double q[4], rot[9], ax[3] = {w[0], w[1], w[2]};
-    mju_normalize3(ax);
-    for (int s = -1; s <= 1; s += 2) {
-      ostGeom* out = s > 0 ? &gp : &gm;
-      *out = *mv;
-      mju_axisAngle2Quat(q, ax, s * eps * mju_norm3(w));
-      mju_quat2Mat(rot, q);
-      mju_mulMatMat(out->mat, rot, mv->mat, 3, 3, 3);
-      for (int k = 0; k < 3; k++) out->pos[k] = mv->pos[k] + s * eps * v[k];
-    }
+    ost_fixtureMoveGeom(&gp, mv, v, w, eps);
+    ost_fixtureMoveGeom(&gm, mv, v, w, -eps);
     int np, nm;
     ostContact cp = which ? deepest(&b, &gp, &np) : deepest(&gp, &g, &np);
     ostContact cm = which ? deepest(&b, &gm, &nm) : deepest(&gm, &g, &nm);
     double p[3];
     for (int k = 0; k < 3; k++) p[k] = con.pos[k] + (which ? 0.5 : -0.5) * con.dist * con.frame[k];
-    double r[3] = {p[0] - mv->pos[0], p[1] - mv->pos[1], p[2] - mv->pos[2]}, wr[3];
-    mju_cross(wr, w, r);
-    double pv[3] = {v[0] + wr[0], v[1] + wr[1], v[2] + wr[2]};
-    double pred = (which ? 1 : -1) * mju_dot3(con.frame, pv);
-    double scale = mju_norm3(v) + mju_norm3(w) * mju_norm3(r);
+    double scale,
+        pred = (which ? 1 : -1) * ost_fixturePointRate(con.frame, p, mv->pos, v, w, &scale);
     double right = (cp.dist - con.dist) / eps, left = (con.dist - cm.dist) / eps;
     if (fabs(right - left) > 1e-4 * scale) {
       continue;  // a kink: the nearest features change within eps

@@ -21,6 +21,8 @@
 
 #include <mujoco/mujoco.h>
 
+#include "fixture_geom.h"
+
 #include "ost_collision_epa.h"
 
 #define BIG_MARGIN 1e3  // report the contact at any distance
@@ -28,50 +30,12 @@
 
 //---------------------------------- helpers -------------------------------------------------------
 
-static double urand(double a, double b) {
-  return a + (b - a) * drand48();
-}
-
-
-static void randMat(double mat[9]) {
-  double q[4], n = 0;
-  while (n < 1e-3) {
-    for (int i = 0; i < 4; i++) q[i] = urand(-1, 1);
-    n = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-  }
-  for (int i = 0; i < 4; i++) q[i] /= n;
-  mju_quat2Mat(mat, q);
-}
-
-
-static void geom(ostGeom* g, int type, double sx, double sy, double sz) {
-  memset(g, 0, sizeof(*g));
-  g->type = type;
-  g->size[0] = sx;
-  g->size[1] = sy;
-  g->size[2] = sz;
-  g->mat[0] = g->mat[4] = g->mat[8] = 1;
-}
-
 
 // the contact of ellipsoid e : box b at any distance (exactly one)
 static ostContact contact(const ostGeom* e, const ostGeom* b) {
   ostContact con;
   ck_assert_int_eq(osti_collideEllipsoidBox(&con, e, b, BIG_MARGIN, 1e-6, 50), 1);
   return con;
-}
-
-
-// rigid motion of g by eps along the twist (v, w) about its own origin
-static void moveGeom(ostGeom* out, const ostGeom* g, const double v[3], const double w[3],
-                     double eps) {
-  *out = *g;
-  double q[4], rot[9], ax[3] = {w[0], w[1], w[2]};
-  mju_normalize3(ax);
-  mju_axisAngle2Quat(q, ax, eps * mju_norm3(w));
-  mju_quat2Mat(rot, q);
-  mju_mulMatMat(out->mat, rot, g->mat, 3, 3, 3);
-  for (int k = 0; k < 3; k++) out->pos[k] = g->pos[k] + eps * v[k];
 }
 
 
@@ -84,16 +48,18 @@ START_TEST(test_ellbox_ball) {
   double worst_d = 0, worst_n = 0;
   for (int rep = 0; rep < 4000; rep++) {
     ostGeom e, b;
-    double r = urand(0.01, 0.1);
-    geom(&e, OST_GEOM_ELLIPSOID, r, r, r);
-    geom(&b, OST_GEOM_BOX, urand(0.02, 0.2), urand(0.02, 0.2), urand(0.02, 0.2));
-    randMat(b.mat);
-    randMat(e.mat);
-    for (int k = 0; k < 3; k++) b.pos[k] = urand(-1, 1);
+    double r = ost_fixtureUniform(0.01, 0.1);
+    ost_fixtureGeom(&e, OST_GEOM_ELLIPSOID, r, r, r);
+    ost_fixtureGeom(&b, OST_GEOM_BOX, ost_fixtureUniform(0.02, 0.2), ost_fixtureUniform(0.02, 0.2),
+                    ost_fixtureUniform(0.02, 0.2));
+    ost_fixtureRandMat(b.mat);
+    ost_fixtureRandMat(e.mat);
+    for (int k = 0; k < 3; k++) b.pos[k] = ost_fixtureUniform(-1, 1);
     double cl[3], q[3], dif[3];  // the centre in the box frame, and its closest box point
     int inside = 1;
     for (int k = 0; k < 3; k++) {
-      cl[k] = urand(-1.5, 1.5) * b.size[k] + (rep % 4 == 0 ? 0 : urand(-0.5, 0.5) * r);
+      cl[k] = ost_fixtureUniform(-1.5, 1.5) * b.size[k] +
+              (rep % 4 == 0 ? 0 : ost_fixtureUniform(-0.5, 0.5) * r);
       q[k] = fmin(fmax(cl[k], -b.size[k]), b.size[k]);
       inside &= q[k] == cl[k];
     }
@@ -144,8 +110,8 @@ START_TEST(test_ellbox_resting) {
   // the Allegro hand's object: an ellipsoid (0.03, 0.04, 0.02) turned by 20 and 10 degrees,
   // sunk 5e-8 m into the face of a box tilted by 5 degrees (MuJoCo's MPR: millimetres off)
   ostGeom e, b;
-  geom(&e, OST_GEOM_ELLIPSOID, 0.03, 0.04, 0.02);
-  geom(&b, OST_GEOM_BOX, 0.05, 0.05, 0.01);
+  ost_fixtureGeom(&e, OST_GEOM_ELLIPSOID, 0.03, 0.04, 0.02);
+  ost_fixtureGeom(&b, OST_GEOM_BOX, 0.05, 0.05, 0.01);
   double qb[4], qx[4], qy[4], qe[4], ax[3] = {1, 0, 0}, ay[3] = {0, 1, 0};
   mju_axisAngle2Quat(qb, ay, 5 * M_PI / 180);
   mju_axisAngle2Quat(qx, ax, 20 * M_PI / 180);
@@ -189,11 +155,13 @@ START_TEST(test_ellbox_gjk_epa) {
   int napart = 0, nover = 0, nskip = 0;
   for (int rep = 0; rep < 6000; rep++) {
     ostGeom e, b;
-    geom(&e, OST_GEOM_ELLIPSOID, urand(0.01, 0.1), urand(0.01, 0.1), urand(0.01, 0.1));
-    geom(&b, OST_GEOM_BOX, urand(0.01, 0.2), urand(0.01, 0.2), urand(0.01, 0.2));
-    randMat(e.mat);
-    randMat(b.mat);
-    for (int k = 0; k < 3; k++) e.pos[k] = urand(-1, 1) * (b.size[k] + 0.1);
+    ost_fixtureGeom(&e, OST_GEOM_ELLIPSOID, ost_fixtureUniform(0.01, 0.1),
+                    ost_fixtureUniform(0.01, 0.1), ost_fixtureUniform(0.01, 0.1));
+    ost_fixtureGeom(&b, OST_GEOM_BOX, ost_fixtureUniform(0.01, 0.2), ost_fixtureUniform(0.01, 0.2),
+                    ost_fixtureUniform(0.01, 0.2));
+    ost_fixtureRandMat(e.mat);
+    ost_fixtureRandMat(b.mat);
+    for (int k = 0; k < 3; k++) e.pos[k] = ost_fixtureUniform(-1, 1) * (b.size[k] + 0.1);
     double size = fmax(fmax(e.size[0], e.size[1]), e.size[2]);
     double dist, pa[3], pb[3], n[3];
     ostContact con = contact(&e, &b);
@@ -252,14 +220,18 @@ START_TEST(test_ellbox_lipschitz) {
   double worst = 0;
   for (int rep = 0; rep < 60; rep++) {
     ostGeom e, b;
-    geom(&e, OST_GEOM_ELLIPSOID, urand(0.02, 0.05), urand(0.02, 0.05), urand(0.02, 0.05));
-    geom(&b, OST_GEOM_BOX, urand(0.03, 0.1), urand(0.03, 0.1), urand(0.01, 0.05));
-    randMat(e.mat);
-    double down[3] = {0, 0, -1}, s[3], lift = urand(-0.002, 0.02);
+    ost_fixtureGeom(&e, OST_GEOM_ELLIPSOID, ost_fixtureUniform(0.02, 0.05),
+                    ost_fixtureUniform(0.02, 0.05), ost_fixtureUniform(0.02, 0.05));
+    ost_fixtureGeom(&b, OST_GEOM_BOX, ost_fixtureUniform(0.03, 0.1), ost_fixtureUniform(0.03, 0.1),
+                    ost_fixtureUniform(0.01, 0.05));
+    ost_fixtureRandMat(e.mat);
+    double down[3] = {0, 0, -1}, s[3], lift = ost_fixtureUniform(-0.002, 0.02);
     osti_support(s, &e, down, 0);
     double z0 = e.pos[2] - s[2] + b.size[2] + lift;  // lowest point `lift` above the top
-    double from[3] = {urand(-0.5, 0.5) * b.size[0], urand(-0.5, 0.5) * b.size[1], z0};
-    double dir[3] = {urand(-1, 1), urand(-1, 1), urand(-0.02, 0.02)};
+    double from[3] = {ost_fixtureUniform(-0.5, 0.5) * b.size[0],
+                      ost_fixtureUniform(-0.5, 0.5) * b.size[1], z0};
+    double dir[3] = {ost_fixtureUniform(-1, 1), ost_fixtureUniform(-1, 1),
+                     ost_fixtureUniform(-0.02, 0.02)};
     mju_normalize3(dir);
     double rmin = fmin(fmin(e.size[0], e.size[1]), e.size[2]);
     double rho = rmin * rmin / fmax(fmax(e.size[0], e.size[1]), e.size[2]);
@@ -294,22 +266,24 @@ START_TEST(test_ellbox_first_order) {
   int ncase = 0;
   for (int rep = 0; rep < 3000; rep++) {
     ostGeom e, b, gp, gm;
-    geom(&e, OST_GEOM_ELLIPSOID, urand(0.01, 0.1), urand(0.01, 0.1), urand(0.01, 0.1));
-    geom(&b, OST_GEOM_BOX, urand(0.01, 0.2), urand(0.01, 0.2), urand(0.01, 0.2));
-    randMat(e.mat);
-    randMat(b.mat);
-    for (int k = 0; k < 3; k++) e.pos[k] = urand(-1, 1) * (b.size[k] + 0.1);
+    ost_fixtureGeom(&e, OST_GEOM_ELLIPSOID, ost_fixtureUniform(0.01, 0.1),
+                    ost_fixtureUniform(0.01, 0.1), ost_fixtureUniform(0.01, 0.1));
+    ost_fixtureGeom(&b, OST_GEOM_BOX, ost_fixtureUniform(0.01, 0.2), ost_fixtureUniform(0.01, 0.2),
+                    ost_fixtureUniform(0.01, 0.2));
+    ost_fixtureRandMat(e.mat);
+    ost_fixtureRandMat(b.mat);
+    for (int k = 0; k < 3; k++) e.pos[k] = ost_fixtureUniform(-1, 1) * (b.size[k] + 0.1);
     ostContact con = contact(&e, &b);
     double rmin = fmin(fmin(e.size[0], e.size[1]), e.size[2]);
     if (con.dist < -0.5 * rmin) {
       continue;  // deep
     }
-    double v[3] = {urand(-1, 1), urand(-1, 1), urand(-1, 1)};
-    double w[3] = {urand(-3, 3), urand(-3, 3), urand(-3, 3)};
+    double v[3] = {ost_fixtureUniform(-1, 1), ost_fixtureUniform(-1, 1), ost_fixtureUniform(-1, 1)};
+    double w[3] = {ost_fixtureUniform(-3, 3), ost_fixtureUniform(-3, 3), ost_fixtureUniform(-3, 3)};
     int which = rep % 2;  // move the box (1) or the ellipsoid (0)
     const ostGeom* g = which ? &b : &e;
-    moveGeom(&gp, g, v, w, eps);
-    moveGeom(&gm, g, v, w, -eps);
+    ost_fixtureMoveGeom(&gp, g, v, w, eps);
+    ost_fixtureMoveGeom(&gm, g, v, w, -eps);
     ostContact cp = which ? contact(&e, &gp) : contact(&gp, &b);
     ostContact cm = which ? contact(&e, &gm) : contact(&gm, &b);
     // the witnesses: the contact point +- dist/2 along the normal (ellipsoid's, box's)
@@ -317,12 +291,9 @@ START_TEST(test_ellbox_first_order) {
     for (int k = 0; k < 3; k++) {
       p[k] = con.pos[k] + (which ? 0.5 : -0.5) * con.dist * con.frame[k];
     }
-    double r[3] = {p[0] - g->pos[0], p[1] - g->pos[1], p[2] - g->pos[2]}, wr[3];
-    mju_cross(wr, w, r);
-    double pv[3] = {v[0] + wr[0], v[1] + wr[1], v[2] + wr[2]};
-    double pred = (which ? 1 : -1) * mju_dot3(con.frame, pv);
+    double scale,
+        pred = (which ? 1 : -1) * ost_fixturePointRate(con.frame, p, g->pos, v, w, &scale);
     double rate = (cp.dist - cm.dist) / (2 * eps);
-    double scale = mju_norm3(v) + mju_norm3(w) * mju_norm3(r);
     // where the nearest features are not unique the distance has a kink; skip those
     double right = (cp.dist - con.dist) / eps, left = (con.dist - cm.dist) / eps;
     if (fabs(right - left) > 1e-4 * scale) {
@@ -367,13 +338,14 @@ START_TEST(test_ellball) {
   for (int rep = 0; rep < 6000; rep++) {
     ostGeom g, e, gp, gm;
     int capsule = rep % 2, round = rep % 3 == 0;
-    geom(&g, capsule ? OST_GEOM_CAPSULE : OST_GEOM_SPHERE, urand(0.005, 0.03), urand(0.01, 0.05),
-         0);
-    double R = urand(0.02, 0.08);
-    geom(&e, OST_GEOM_ELLIPSOID, R, round ? R : urand(0.02, 0.08), round ? R : urand(0.02, 0.08));
-    randMat(g.mat);
-    randMat(e.mat);
-    for (int k = 0; k < 3; k++) g.pos[k] = urand(-0.12, 0.12);
+    ost_fixtureGeom(&g, capsule ? OST_GEOM_CAPSULE : OST_GEOM_SPHERE,
+                    ost_fixtureUniform(0.005, 0.03), ost_fixtureUniform(0.01, 0.05), 0);
+    double R = ost_fixtureUniform(0.02, 0.08);
+    ost_fixtureGeom(&e, OST_GEOM_ELLIPSOID, R, round ? R : ost_fixtureUniform(0.02, 0.08),
+                    round ? R : ost_fixtureUniform(0.02, 0.08));
+    ost_fixtureRandMat(g.mat);
+    ost_fixtureRandMat(e.mat);
+    for (int k = 0; k < 3; k++) g.pos[k] = ost_fixtureUniform(-0.12, 0.12);
     double size = fmax(fmax(e.size[0], e.size[1]), e.size[2]);
     ostContact con = ballContact(&g, &e);
     if (round) {
@@ -405,22 +377,19 @@ START_TEST(test_ellball) {
     }
     // first order: move the ball (which = 0) or the ellipsoid (1) along a random twist
     const double eps = 1e-6;
-    double v[3] = {urand(-1, 1), urand(-1, 1), urand(-1, 1)};
-    double w[3] = {urand(-3, 3), urand(-3, 3), urand(-3, 3)};
+    double v[3] = {ost_fixtureUniform(-1, 1), ost_fixtureUniform(-1, 1), ost_fixtureUniform(-1, 1)};
+    double w[3] = {ost_fixtureUniform(-3, 3), ost_fixtureUniform(-3, 3), ost_fixtureUniform(-3, 3)};
     int which = rep % 4 < 2;
     const ostGeom* mv = which ? &e : &g;
-    moveGeom(&gp, mv, v, w, eps);
-    moveGeom(&gm, mv, v, w, -eps);
+    ost_fixtureMoveGeom(&gp, mv, v, w, eps);
+    ost_fixtureMoveGeom(&gm, mv, v, w, -eps);
     ostContact cp = which ? ballContact(&g, &gp) : ballContact(&gp, &e);
     ostContact cm = which ? ballContact(&g, &gm) : ballContact(&gm, &e);
     double p[3];  // the witness on the moved geom: pos -+ dist/2 along the normal (ball -> ell.)
     for (int k = 0; k < 3; k++) p[k] = con.pos[k] + (which ? 0.5 : -0.5) * con.dist * con.frame[k];
-    double r[3] = {p[0] - mv->pos[0], p[1] - mv->pos[1], p[2] - mv->pos[2]}, wr[3];
-    mju_cross(wr, w, r);
-    double pv[3] = {v[0] + wr[0], v[1] + wr[1], v[2] + wr[2]};
-    double pred = (which ? 1 : -1) * mju_dot3(con.frame, pv);
+    double scale,
+        pred = (which ? 1 : -1) * ost_fixturePointRate(con.frame, p, mv->pos, v, w, &scale);
     double rate = (cp.dist - cm.dist) / (2 * eps);
-    double scale = mju_norm3(v) + mju_norm3(w) * mju_norm3(r);
     double err = fabs(rate - pred) / scale;
     worst_rate = fmax(worst_rate, err);
     ck_assert_msg(err < 1e-6, "rep %d: d(dist)/dt %.12g, n.(dx_e - dx_b) %.12g", rep, rate, pred);

@@ -17,45 +17,23 @@
 
 #include <mujoco/mujoco.h>
 
+#include "fixture_geom.h"
+
 #define TOL_DEPTH 1e-10  // depth against closed forms and bounds (m; shapes of 0.05-0.5 m)
 
 
 //---------------------------------- helpers -------------------------------------------------------
 
-static double urand(double a, double b) {
-  return a + (b - a) * drand48();
-}
-
-
-static void randMat(double mat[9]) {
-  double q[4], n = 0;
-  while (n < 1e-3) {
-    for (int i = 0; i < 4; i++) q[i] = urand(-1, 1);
-    n = sqrt(q[0]*q[0] + q[1]*q[1] + q[2]*q[2] + q[3]*q[3]);
-  }
-  for (int i = 0; i < 4; i++) q[i] /= n;
-  mju_quat2Mat(mat, q);
-}
-
-
-static void geom(ostGeom* g, int type, double sx, double sy, double sz) {
-  memset(g, 0, sizeof(*g));
-  g->type = type;
-  g->size[0] = sx;
-  g->size[1] = sy;
-  g->size[2] = sz;
-  g->mat[0] = g->mat[4] = g->mat[8] = 1;
-}
-
 
 // random geom of the given type near the origin; vert: room for 3*20 numbers
 static void randGeom(ostGeom* g, int type, double* vert) {
-  geom(g, type, urand(0.05, 0.5), urand(0.05, 0.5), urand(0.05, 0.5));
-  for (int i = 0; i < 3; i++) g->pos[i] = urand(-0.2, 0.2);
-  randMat(g->mat);
+  ost_fixtureGeom(g, type, ost_fixtureUniform(0.05, 0.5), ost_fixtureUniform(0.05, 0.5),
+                  ost_fixtureUniform(0.05, 0.5));
+  for (int i = 0; i < 3; i++) g->pos[i] = ost_fixtureUniform(-0.2, 0.2);
+  ost_fixtureRandMat(g->mat);
   if (type == OST_GEOM_MESH) {
     g->nvert = 20;
-    for (int i = 0; i < 3*g->nvert; i++) vert[i] = urand(-0.3, 0.3);
+    for (int i = 0; i < 3*g->nvert; i++) vert[i] = ost_fixtureUniform(-0.3, 0.3);
     g->vert = vert;
   }
 }
@@ -88,9 +66,9 @@ START_TEST(test_epa_closed_forms) {
   // normal u, a = c1 + 0.3 u, b = c2 - 0.2 u
   for (int rep = 0; rep < 20; rep++) {
     ostGeom g1, g2;
-    geom(&g1, OST_GEOM_SPHERE, 0.3, 0, 0);
-    geom(&g2, OST_GEOM_SPHERE, 0.2, 0, 0);
-    double u[3] = {urand(-1, 1), urand(-1, 1), urand(-1, 1)};
+    ost_fixtureGeom(&g1, OST_GEOM_SPHERE, 0.3, 0, 0);
+    ost_fixtureGeom(&g2, OST_GEOM_SPHERE, 0.2, 0, 0);
+    double u[3] = {ost_fixtureUniform(-1, 1), ost_fixtureUniform(-1, 1), ost_fixtureUniform(-1, 1)};
     mju_normalize3(u);
     for (int k = 0; k < 3; k++) g2.pos[k] = 0.4 * u[k];
     ck_assert_double_eq_tol(epaDepth(&g1, &g2, n, a, b), 0.1, TOL_DEPTH);
@@ -103,8 +81,8 @@ START_TEST(test_epa_closed_forms) {
   // axis-aligned boxes (half sizes 0.3 0.2 0.1 and 0.1 0.1 0.1) overlapping by 0.05 along z and
   // 0.15 along x: depth 0.05 along +z, exact (a polytope)
   ostGeom b1, b2;
-  geom(&b1, OST_GEOM_BOX, 0.3, 0.2, 0.1);
-  geom(&b2, OST_GEOM_BOX, 0.1, 0.1, 0.1);
+  ost_fixtureGeom(&b1, OST_GEOM_BOX, 0.3, 0.2, 0.1);
+  ost_fixtureGeom(&b2, OST_GEOM_BOX, 0.1, 0.1, 0.1);
   b2.pos[0] = 0.25;
   b2.pos[2] = 0.15;
   ck_assert_double_eq_tol(epaDepth(&b1, &b2, n, a, b), 0.05, 1e-14);
@@ -115,13 +93,13 @@ START_TEST(test_epa_closed_forms) {
   // geom1 -> geom2 = box -> ellipsoid: +z), the ellipsoid's witness at its lowest point
   for (int rep = 0; rep < 50; rep++) {
     ostGeom box, ell;
-    geom(&box, OST_GEOM_BOX, 0.05, 0.05, 0.01);
-    geom(&ell, OST_GEOM_ELLIPSOID, 0.03, 0.04, 0.02);
-    randMat(ell.mat);
+    ost_fixtureGeom(&box, OST_GEOM_BOX, 0.05, 0.05, 0.01);
+    ost_fixtureGeom(&ell, OST_GEOM_ELLIPSOID, 0.03, 0.04, 0.02);
+    ost_fixtureRandMat(ell.mat);
     double down[3] = {0, 0, -1}, low[3];
     osti_support(low, &ell, down, 0);  // the ellipsoid's lowest point, relative to its centre
-    ell.pos[0] = urand(-0.01, 0.01);
-    ell.pos[1] = urand(-0.01, 0.01);
+    ell.pos[0] = ost_fixtureUniform(-0.01, 0.01);
+    ell.pos[1] = ost_fixtureUniform(-0.01, 0.01);
     ell.pos[2] = 0.01 - 1e-4 - low[2];
     double depth = epaDepth(&box, &ell, n, a, b);
     ck_assert_msg(fabs(depth - 1e-4) <= TOL_DEPTH && fabs(n[2] - 1) <= 1e-12,
@@ -180,7 +158,8 @@ START_TEST(test_epa_certified) {
         // minimality: no direction gives a smaller support value (origin inside K: the
         // distance to K's boundary is the least h over unit directions)
         for (int s = 0; s < 200; s++) {
-          double m[3] = {urand(-1, 1), urand(-1, 1), urand(-1, 1)};
+          double m[3] = {ost_fixtureUniform(-1, 1), ost_fixtureUniform(-1, 1),
+                         ost_fixtureUniform(-1, 1)};
           if (s < 100) {  // half of them near n
             for (int k = 0; k < 3; k++) m[k] = n[k] + 0.01 * m[k];
           }
@@ -218,21 +197,6 @@ END_TEST
 
 //---------------------------------- (c) first-order consistency -----------------------------------
 
-// rigid motion of g by eps along the unit twist (v, w): translation v and rotation w about its
-// own origin
-static void moveGeom(ostGeom* out, const ostGeom* g, const double v[3], const double w[3],
-                     double eps) {
-  *out = *g;
-  double q[4], rot[9], mat[9];
-  double ax[3] = {w[0], w[1], w[2]};
-  mju_normalize3(ax);  // mju_axisAngle2Quat takes a unit axis
-  mju_axisAngle2Quat(q, ax, eps * mju_norm3(w));
-  mju_quat2Mat(rot, q);
-  mju_mulMatMat(mat, rot, g->mat, 3, 3, 3);
-  memcpy(out->mat, mat, sizeof(mat));
-  for (int k = 0; k < 3; k++) out->pos[k] = g->pos[k] + eps * v[k];
-}
-
 
 START_TEST(test_epa_first_order) {
   const int types[5] = {OST_GEOM_ELLIPSOID, OST_GEOM_CYLINDER, OST_GEOM_BOX, OST_GEOM_MESH,
@@ -253,13 +217,15 @@ START_TEST(test_epa_first_order) {
         if (!certified || depth < 1e-3) {
           continue;
         }
-        double v[3] = {urand(-1, 1), urand(-1, 1), urand(-1, 1)};
-        double w[3] = {urand(-3, 3), urand(-3, 3), urand(-3, 3)};
+        double v[3] = {ost_fixtureUniform(-1, 1), ost_fixtureUniform(-1, 1),
+                       ost_fixtureUniform(-1, 1)};
+        double w[3] = {ost_fixtureUniform(-3, 3), ost_fixtureUniform(-3, 3),
+                       ost_fixtureUniform(-3, 3)};
         int which = rep % 2;  // move geom 1 or geom 2
         const ostGeom* g = which ? &g2 : &g1;
         double dp, dm, nn[3], aa[3], bb[3], rate, pred;
-        moveGeom(&gp, g, v, w, eps);
-        moveGeom(&gm, g, v, w, -eps);
+        ost_fixtureMoveGeom(&gp, g, v, w, eps);
+        ost_fixtureMoveGeom(&gm, g, v, w, -eps);
         int okp = osti_epaPenetration(which ? &g1 : &gp, which ? &gp : &g2, &dp, nn, aa, bb, 0);
         int okm = osti_epaPenetration(which ? &g1 : &gm, which ? &gm : &g2, &dm, nn, aa, bb, 0);
         if (!okp || !okm) {
@@ -268,11 +234,8 @@ START_TEST(test_epa_first_order) {
         rate = (dp - dm) / (2 * eps);
         // velocity of the witness point on the moved geom: v + w x (p - origin)
         const double* p = which ? b : a;
-        double r[3] = {p[0] - g->pos[0], p[1] - g->pos[1], p[2] - g->pos[2]}, wr[3];
-        mju_cross(wr, w, r);
-        double pv[3] = {v[0] + wr[0], v[1] + wr[1], v[2] + wr[2]};
-        pred = (which ? -1 : 1) * mju_dot3(n, pv);
-        double scale = mju_norm3(v) + mju_norm3(w) * mju_norm3(r);
+        double scale;
+        pred = (which ? -1 : 1) * ost_fixturePointRate(n, p, g->pos, v, w, &scale);
         // where the nearest features are not unique (a cylinder's side, parallel faces) the
         // depth has a kink: its one-sided rates differ, and the witness follows one of them
         double right = (dp - depth) / eps, left = (depth - dm) / eps;
