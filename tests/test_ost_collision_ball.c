@@ -194,6 +194,51 @@ START_TEST(test_ball_first_order) {
 END_TEST
 
 
+// every contact is finite with a unit normal whatever the shapes: sizes from 0.1 mm to 100 m,
+// random hexahedral meshes and cylinders, capsules from points to long rods, axes that pass
+// through the other shape's centre (where the core touches and MPR takes over)
+START_TEST(test_ball_extremes) {
+  srand48(78);
+  const double sizes[4] = {1e-4, 1e-2, 1, 100};
+  int ncon = 0;
+  for (int rep = 0; rep < 60000; rep++) {
+    double vert[24], s0 = sizes[rep % 4];
+    ostGeom b, g;
+    if (rep % 2) {
+      ost_fixtureGeom(&g, OST_GEOM_MESH, s0, s0, s0);
+      for (int v = 0; v < 8; v++) {
+        for (int k = 0; k < 3; k++) {
+          vert[3 * v + k] = (v >> k & 1 ? 1 : -1) * s0 * ost_fixtureUniform(0.01, 1);
+        }
+      }
+      g.nvert = 8;
+      g.vert = vert;
+    } else {
+      ost_fixtureGeom(&g, OST_GEOM_CYLINDER, s0 * ost_fixtureUniform(0.01, 1),
+                      s0 * ost_fixtureUniform(0.01, 1), 0);
+    }
+    ost_fixtureGeom(&b, rep % 4 < 2 ? OST_GEOM_CAPSULE : OST_GEOM_SPHERE,
+                    s0 * ost_fixtureUniform(0, 2), s0 * ost_fixtureUniform(0, 3), 0);
+    ost_fixtureRandMat(b.mat);
+    ost_fixtureRandMat(g.mat);
+    double reach = rep % 7 == 0 ? 0 : ost_fixtureUniform(0, 3) * s0;
+    for (int k = 0; k < 3; k++) b.pos[k] = reach * ost_fixtureUniform(-1, 1);
+    ostContact con[OST_MAXCONPAIR];
+    int n = osti_collideBallConvex(con, &b, &g, 1e3 * s0, 1e-6, 50);
+    for (int i = 0; i < n; i++) {
+      const double* f = con[i].frame;
+      int finite = isfinite(con[i].dist);
+      for (int k = 0; k < 3; k++) finite &= isfinite(con[i].pos[k]);
+      ck_assert_msg(finite && fabs(f[0] * f[0] + f[1] * f[1] + f[2] * f[2] - 1) < 1e-9,
+                    "rep %d: dist %g", rep, con[i].dist);
+    }
+    ncon += n;
+  }
+  ck_assert_int_ge(ncon, 30000);
+}
+END_TEST
+
+
 int main(void) {
   Suite* s = suite_create("ost_collision_ball");
   TCase* tc = tcase_create("ball");
@@ -201,6 +246,7 @@ int main(void) {
   tcase_add_test(tc, test_ball_closed_forms);
   tcase_add_test(tc, test_ball_capsule_lying);
   tcase_add_test(tc, test_ball_first_order);
+  tcase_add_test(tc, test_ball_extremes);
   suite_add_tcase(s, tc);
   SRunner* sr = srunner_create(s);
   srunner_run_all(sr, CK_NORMAL);

@@ -404,6 +404,45 @@ START_TEST(test_ellball) {
 END_TEST
 
 
+// every contact is finite with a unit normal whatever the shapes: sizes from 0.1 mm to 100 m,
+// semi-axes 1e-3 to 1e3 times each other, centres that coincide (where a point has no unique
+// nearest point on the ellipsoid and MPR takes over)
+START_TEST(test_ellipsoid_extremes) {
+  srand48(77);
+  const double sizes[4] = {1e-4, 1e-2, 1, 100};
+  int ncon = 0;
+  for (int rep = 0; rep < 60000; rep++) {
+    ostGeom a, e;
+    double s0 = sizes[rep % 4];
+    ost_fixtureGeom(&e, OST_GEOM_ELLIPSOID, s0, s0 * pow(10, ost_fixtureUniform(-3, 3)),
+                    s0 * pow(10, ost_fixtureUniform(-3, 3)));
+    int type = rep % 3;
+    ost_fixtureGeom(&a, type == 0 ? OST_GEOM_SPHERE : type == 1 ? OST_GEOM_CAPSULE : OST_GEOM_BOX,
+                    s0 * ost_fixtureUniform(0, 2), s0 * ost_fixtureUniform(0, 3),
+                    s0 * ost_fixtureUniform(0, 2));
+    ost_fixtureRandMat(a.mat);
+    ost_fixtureRandMat(e.mat);
+    double reach = rep % 7 == 0 ? 0 : ost_fixtureUniform(0, 3) * s0;
+    for (int k = 0; k < 3; k++) a.pos[k] = reach * ost_fixtureUniform(-1, 1);
+    ostContact con[OST_MAXCONPAIR];
+    int n = type == 0   ? osti_collideSphereEllipsoid(con, &a, &e, 1e3 * s0, 1e-6, 50)
+            : type == 1 ? osti_collideCapsuleEllipsoid(con, &a, &e, 1e3 * s0, 1e-6, 50)
+                        : osti_collideEllipsoidBox(con, &e, &a, 1e3 * s0, 1e-6, 50);
+    for (int i = 0; i < n; i++) {
+      const double* f = con[i].frame;
+      int finite = isfinite(con[i].dist);
+      for (int k = 0; k < 3; k++) finite &= isfinite(con[i].pos[k]);
+      ck_assert_msg(finite && fabs(f[0] * f[0] + f[1] * f[1] + f[2] * f[2] - 1) < 1e-9,
+                    "rep %d (type %d): dist %g, |n|^2 - 1 = %g", rep, type, con[i].dist,
+                    f[0] * f[0] + f[1] * f[1] + f[2] * f[2] - 1);
+    }
+    ncon += n;
+  }
+  ck_assert_int_ge(ncon, 30000);
+}
+END_TEST
+
+
 int main(void) {
   Suite* s = suite_create("ost_collision_ellipsoid");
   TCase* tc = tcase_create("ellipsoid");
@@ -414,6 +453,7 @@ int main(void) {
   tcase_add_test(tc, test_ellbox_lipschitz);
   tcase_add_test(tc, test_ellbox_first_order);
   tcase_add_test(tc, test_ellball);
+  tcase_add_test(tc, test_ellipsoid_extremes);
   suite_add_tcase(s, tc);
   SRunner* sr = srunner_create(s);
   srunner_run_all(sr, CK_NORMAL);
