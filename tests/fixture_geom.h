@@ -65,4 +65,12 @@ static inline double ost_fixturePointRate(const double n[3], const double p[3], 
   return mju_dot3(n, pv);
 }
 
+// 1 if a contact's distance and point are finite and its normal has unit length (to 1e-9)
+static inline int ost_fixtureContactValid(const ostContact* c) {
+  const double* f = c->frame;
+  int finite = isfinite(c->dist);
+  for (int k = 0; k < 3; k++) finite &= isfinite(c->pos[k]);
+  return finite && fabs(f[0] * f[0] + f[1] * f[1] + f[2] * f[2] - 1) < 1e-9;
+}
+
 #endif  // OSTRICH_TESTS_FIXTURE_GEOM_H_

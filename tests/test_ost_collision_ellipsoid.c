@@ -137,6 +137,19 @@ START_TEST(test_ellbox_resting) {
 END_TEST
 
 
+// a random ellipsoid (semi-axes 1-10 cm) about a random box (half sizes 1-20 cm), its centre
+// within 10 cm of the box's extent along each box axis, both turned at random
+static void randomPair(ostGeom* e, ostGeom* b) {
+  ost_fixtureGeom(e, OST_GEOM_ELLIPSOID, ost_fixtureUniform(0.01, 0.1),
+                  ost_fixtureUniform(0.01, 0.1), ost_fixtureUniform(0.01, 0.1));
+  ost_fixtureGeom(b, OST_GEOM_BOX, ost_fixtureUniform(0.01, 0.2), ost_fixtureUniform(0.01, 0.2),
+                  ost_fixtureUniform(0.01, 0.2));
+  ost_fixtureRandMat(e->mat);
+  ost_fixtureRandMat(b->mat);
+  for (int k = 0; k < 3; k++) e->pos[k] = ost_fixtureUniform(-1, 1) * (b->size[k] + 0.1);
+}
+
+
 //---------------------------------- (b) against GJK and EPA ---------------------------------------
 
 // the penetration of ellipsoid e into box b along n (from e to b), by support values:
@@ -155,13 +168,7 @@ START_TEST(test_ellbox_gjk_epa) {
   int napart = 0, nover = 0, nskip = 0;
   for (int rep = 0; rep < 6000; rep++) {
     ostGeom e, b;
-    ost_fixtureGeom(&e, OST_GEOM_ELLIPSOID, ost_fixtureUniform(0.01, 0.1),
-                    ost_fixtureUniform(0.01, 0.1), ost_fixtureUniform(0.01, 0.1));
-    ost_fixtureGeom(&b, OST_GEOM_BOX, ost_fixtureUniform(0.01, 0.2), ost_fixtureUniform(0.01, 0.2),
-                    ost_fixtureUniform(0.01, 0.2));
-    ost_fixtureRandMat(e.mat);
-    ost_fixtureRandMat(b.mat);
-    for (int k = 0; k < 3; k++) e.pos[k] = ost_fixtureUniform(-1, 1) * (b.size[k] + 0.1);
+    randomPair(&e, &b);
     double size = fmax(fmax(e.size[0], e.size[1]), e.size[2]);
     double dist, pa[3], pb[3], n[3];
     ostContact con = contact(&e, &b);
@@ -266,13 +273,7 @@ START_TEST(test_ellbox_first_order) {
   int ncase = 0;
   for (int rep = 0; rep < 3000; rep++) {
     ostGeom e, b, gp, gm;
-    ost_fixtureGeom(&e, OST_GEOM_ELLIPSOID, ost_fixtureUniform(0.01, 0.1),
-                    ost_fixtureUniform(0.01, 0.1), ost_fixtureUniform(0.01, 0.1));
-    ost_fixtureGeom(&b, OST_GEOM_BOX, ost_fixtureUniform(0.01, 0.2), ost_fixtureUniform(0.01, 0.2),
-                    ost_fixtureUniform(0.01, 0.2));
-    ost_fixtureRandMat(e.mat);
-    ost_fixtureRandMat(b.mat);
-    for (int k = 0; k < 3; k++) e.pos[k] = ost_fixtureUniform(-1, 1) * (b.size[k] + 0.1);
+    randomPair(&e, &b);
     ostContact con = contact(&e, &b);
     double rmin = fmin(fmin(e.size[0], e.size[1]), e.size[2]);
     if (con.dist < -0.5 * rmin) {
@@ -429,12 +430,8 @@ START_TEST(test_ellipsoid_extremes) {
             : type == 1 ? osti_collideCapsuleEllipsoid(con, &a, &e, 1e3 * s0, 1e-6, 50)
                         : osti_collideEllipsoidBox(con, &e, &a, 1e3 * s0, 1e-6, 50);
     for (int i = 0; i < n; i++) {
-      const double* f = con[i].frame;
-      int finite = isfinite(con[i].dist);
-      for (int k = 0; k < 3; k++) finite &= isfinite(con[i].pos[k]);
-      ck_assert_msg(finite && fabs(f[0] * f[0] + f[1] * f[1] + f[2] * f[2] - 1) < 1e-9,
-                    "rep %d (type %d): dist %g, |n|^2 - 1 = %g", rep, type, con[i].dist,
-                    f[0] * f[0] + f[1] * f[1] + f[2] * f[2] - 1);
+      ck_assert_msg(ost_fixtureContactValid(con + i), "rep %d (type %d): dist %g", rep, type,
+                    con[i].dist);
     }
     ncon += n;
   }
