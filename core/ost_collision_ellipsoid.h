@@ -149,6 +149,33 @@ OST_HD void osti_ellboxSupport(ostNum x[3], const ostNum c[3], const ostNum Rr[9
 }
 
 
+// a point p (world) against ellipsoid g: 1 with its signed distance *sd, the ellipsoid's
+// outward unit normal n and its witness x (world); 0 if p is at the centre
+OST_HD int osti_ellPoint(const ostGeom* g, const ostNum p[3], ostNum* sd, ostNum n[3],
+                         ostNum x[3]) {
+  ostNum dif[3] = {p[0] - g->pos[0], p[1] - g->pos[1], p[2] - g->pos[2]}, q[3], y[3], gr[3];
+  osti_boxMulMatTVec(q, g->mat, dif);  // p in the ellipsoid's frame
+  if (!osti_ellClosest(3, g->size, q, y)) {
+    return 0;
+  }
+  ostNum gn = 0;
+  for (int l = 0; l < 3; l++) {
+    gr[l] = y[l] / (g->size[l] * g->size[l]);
+    gn += gr[l] * gr[l];
+  }
+  gn = sqrt(gn);
+  *sd = 0;
+  for (int l = 0; l < 3; l++) {
+    gr[l] /= gn;
+    *sd += (q[l] - y[l]) * gr[l];
+  }
+  osti_boxMulMatVec(n, g->mat, gr);
+  osti_boxMulMatVec(x, g->mat, y);
+  for (int l = 0; l < 3; l++) x[l] += g->pos[l];
+  return 1;
+}
+
+
 // edge along axis k at signs (si, sj) of the other two axes: 1 if it holds, with its signed
 // distance *dist, the ellipsoid's outward unit normal n and its witness x, the edge's point b
 OST_HD int osti_ellboxEdge(const ostNum c[3], const ostNum Rr[9], const ostNum s[3],
@@ -208,60 +235,29 @@ OST_HD int osti_ellboxEdge(const ostNum c[3], const ostNum Rr[9], const ostNum s
 }
 
 
-// vertex v = sg e: 1 if it holds, with its signed distance, normal n, witness x (as above)
+// vertex v = sg e: 1 if it holds, with its signed distance, normal n, witness x (as above): the
+// point-ellipsoid distance (osti_ellPoint) with the ellipsoid placed in the box frame
 OST_HD int osti_ellboxVertex(const ostNum c[3], const ostNum Rr[9], const ostNum s[3],
                              const ostNum v[3], const ostNum sg[3], ostNum* dist, ostNum n[3],
                              ostNum x[3]) {
-  ostNum dv[3] = {v[0] - c[0], v[1] - c[1], v[2] - c[2]}, p[3], y[3], g[3], gn = 0;
-  osti_boxMulMatTVec(p, Rr, dv);  // v in the ellipsoid's frame
-  if (!osti_ellClosest(3, s, p, y)) {
+  ostGeom e;
+  e.type = OST_GEOM_ELLIPSOID;
+  e.nvert = 0;
+  e.vert = NULL;
+  e.rbound = 0;
+  for (int l = 0; l < 3; l++) {
+    e.pos[l] = c[l];
+    e.size[l] = s[l];
+  }
+  for (int l = 0; l < 9; l++) e.mat[l] = Rr[l];
+  if (!osti_ellPoint(&e, v, dist, n, x)) {
     return 0;
   }
-  for (int l = 0; l < 3; l++) {
-    g[l] = y[l] / (s[l] * s[l]);
-    gn += g[l] * g[l];
-  }
-  gn = sqrt(gn);
-  for (int l = 0; l < 3; l++) g[l] /= gn;
-  osti_boxMulMatVec(n, Rr, g);
   for (int l = 0; l < 3; l++) {
     if (sg[l] * n[l] > OST_ELLBOX_SLACK) {
       return 0;  // -n outside v's octant
     }
   }
-  osti_boxMulMatVec(x, Rr, y);
-  *dist = 0;
-  for (int l = 0; l < 3; l++) {
-    x[l] += c[l];
-    *dist += (v[l] - x[l]) * n[l];
-  }
-  return 1;
-}
-
-
-// a point p (world) against ellipsoid g: 1 with its signed distance *sd, the ellipsoid's
-// outward unit normal n and its witness x (world); 0 if p is at the centre
-OST_HD int osti_ellPoint(const ostGeom* g, const ostNum p[3], ostNum* sd, ostNum n[3],
-                         ostNum x[3]) {
-  ostNum dif[3] = {p[0] - g->pos[0], p[1] - g->pos[1], p[2] - g->pos[2]}, q[3], y[3], gr[3];
-  osti_boxMulMatTVec(q, g->mat, dif);  // p in the ellipsoid's frame
-  if (!osti_ellClosest(3, g->size, q, y)) {
-    return 0;
-  }
-  ostNum gn = 0;
-  for (int l = 0; l < 3; l++) {
-    gr[l] = y[l] / (g->size[l] * g->size[l]);
-    gn += gr[l] * gr[l];
-  }
-  gn = sqrt(gn);
-  *sd = 0;
-  for (int l = 0; l < 3; l++) {
-    gr[l] /= gn;
-    *sd += (q[l] - y[l]) * gr[l];
-  }
-  osti_boxMulMatVec(n, g->mat, gr);
-  osti_boxMulMatVec(x, g->mat, y);
-  for (int l = 0; l < 3; l++) x[l] += g->pos[l];
   return 1;
 }
 
