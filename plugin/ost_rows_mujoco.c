@@ -6,7 +6,6 @@
 // at MuJoCo's geom poses, as in the native provider), servo rows from the actuators. Invariant: rows are produced in a deterministic order, so that evaluating the
 // same q twice yields identical rows (the best iterate is re-evaluated by index).
 #include <math.h>
-#include <stdio.h>
 #include <string.h>
 
 #include "ost_collision_ball.h"
