@@ -28,6 +28,7 @@ extern "C" {
 #define OST_BATCH_ARRAYS(X)                                                                     \
   X(ostNum, qpos,        s.nq)                        /* generalized coordinates            */ \
   X(ostNum, qvel,        s.nv)                        /* generalized velocities             */ \
+  X(ostNum, act,         s.na)                        /* actuator activations               */ \
   X(ostNum, ctrl,        s.nu)                        /* controls of the next step          */ \
   X(ostNum, qacc_warm,   s.nv)                        /* last step's (u+ - u-) / h          */ \
   X(ostNum, time,        1)                           /* simulated time (s)                 */ \
@@ -42,7 +43,7 @@ extern "C" {
 
 // one lane's work arrays
 #define OST_LANE_ARRAYS(X)                                                                      \
-  X(ostNum, scratch,   2 * s.nq + s.nv)               /* osti_stepNative's scratch          */ \
+  X(ostNum, scratch,   OST_STEP_SCRATCH(s))           /* osti_stepNative's scratch          */ \
   X(char,   kin,       ostu_kinSize(s))               /* kinematics and contacts (ostKin)   */ \
   X(char,   world,     ostu_worldSize(s.nv, s.ncol, nrow_max)) /* Newton's arrays (ostWorld)         */
 
@@ -136,13 +137,14 @@ OST_HD int osti_allFinite(const ostNum* x, int n) {
 // `lane`. Sequences are step-major, world-minor (T x nworld x n): before step t the world's
 // controls are ctrl_seq[(t nworld + i) nu ..] (NULL: keep the world's ctrl); after step t its
 // qpos and qvel go to qpos_out[(t nworld + i) nq ..] and qvel_out[(t nworld + i) nv ..] (NULL:
-// not kept). A world whose status has a failure bit is not stepped (its outputs repeat its
-// state) until its state is set again; a step with non-finite state or controls is not taken
-// and sets OST_STEP_NAN. sink (or NULL) records the committed substeps.
+// not kept), and its act to act_out[(t nworld + i) na ..] (NULL: not kept). A world whose
+// status has a failure bit is not stepped (its outputs repeat its state) until its state is set
+// again; a step with non-finite state or controls is not taken and sets OST_STEP_NAN. sink (or
+// NULL) records the committed substeps.
 OST_HD void osti_worldRollout(const ostModel* m, const ostBatchLayout* L, char* world, char* lane,
                               int i, const ostStepSettings* set, int t0, int t1,
                               const ostNum* ctrl_seq, ostNum* qpos_out, ostNum* qvel_out,
-                              ostRecordSink* sink) {
+                              ostNum* act_out, ostRecordSink* sink) {
   ostSizes s = L->s;
   size_t nw = (size_t)L->nworld;
   ostBatchView v;
@@ -162,14 +164,14 @@ OST_HD void osti_worldRollout(const ostModel* m, const ostBatchLayout* L, char* 
     }
     if (!(*v.status & OST_STEP_FAILED)) {
       if (!osti_allFinite(v.qpos, s.nq) || !osti_allFinite(v.qvel, s.nv)
-          || !osti_allFinite(v.ctrl, s.nu)) {
+          || !osti_allFinite(v.act, s.na) || !osti_allFinite(v.ctrl, s.nu)) {
         *v.status = OST_STEP_NAN;
       } else {
         if (sink) {
           sink->step = t;
         }
-        *v.status = osti_stepNative(m, &k, &w, v.qpos, v.qvel, v.ctrl, v.qacc_warm, v.warm,
-                                    lv.scratch, set, v.substeps, v.residual, sink);
+        *v.status = osti_stepNative(m, &k, &w, v.qpos, v.qvel, v.act, v.ctrl, v.qacc_warm,
+                                    v.warm, lv.scratch, set, v.substeps, v.residual, sink);
         if (!(*v.status & OST_STEP_FAILED)) {
           *v.time += set->h;
         }
@@ -182,6 +184,9 @@ OST_HD void osti_worldRollout(const ostModel* m, const ostBatchLayout* L, char* 
     if (qvel_out) {
       for (int a = 0; a < s.nv; a++) qvel_out[(t * nw + i) * s.nv + a] = v.qvel[a];
     }
+    if (act_out) {
+      for (int a = 0; a < s.na; a++) act_out[(t * nw + i) * s.na + a] = v.act[a];
+    }
   }
   *v.nrow_warm = w.nrow_warm;
 }
@@ -193,7 +198,7 @@ OST_HD void osti_worldRollout(const ostModel* m, const ostBatchLayout* L, char* 
 OST_HD void osti_batchRollout(const ostModel* m, const ostBatchLayout* L, char* worlds,
                               char* lanes, int i, int l, const ostStepSettings* set, int T,
                               const ostNum* ctrl_seq, ostNum* qpos_out, ostNum* qvel_out,
-                              char* kept, int every) {
+                              ostNum* act_out, char* kept, int every) {
   char* world = worlds + (size_t)i * L->stride;
   char* lane = lanes + (size_t)l * L->lane_stride;
   int seg = kept && every > 0 ? every : T;
@@ -202,7 +207,8 @@ OST_HD void osti_batchRollout(const ostModel* m, const ostBatchLayout* L, char* 
       ostu_copyWords(kept + ((size_t)k * L->nworld + i) * L->stride, world, L->stride);
     }
     int t1 = (k + 1) * seg < T ? (k + 1) * seg : T;
-    osti_worldRollout(m, L, world, lane, i, set, k * seg, t1, ctrl_seq, qpos_out, qvel_out, NULL);
+    osti_worldRollout(m, L, world, lane, i, set, k * seg, t1, ctrl_seq, qpos_out, qvel_out,
+                      act_out, NULL);
   }
 }
 

@@ -51,7 +51,7 @@ OST_HD void osti_adjointForward(const ostModel* m, const ostBatchLayout* L,
     char* ck = al.ckpt + k * ws;
     ostu_copyWords(al.cur, ck, ws);
     osti_worldRollout(m, L, al.cur, al.work, i, set, k * A->seg, (k + 1) * A->seg, ctrl_seq, NULL,
-                      NULL, NULL);
+                      NULL, NULL, NULL);
     ostu_copyWords(ck + ws, al.cur, ws);
   }
   al.info[OST_ADJ_NREC] = 0;
@@ -82,7 +82,8 @@ OST_HD void osti_adjointReplay(const ostModel* m, const ostBatchLayout* L,
   ostu_copyWords(al.cur, kept ? kept + ((size_t)k * L->nworld + i) * ws : al.ckpt + k * ws, ws);
   ostRecordSink sink = {al.rec, A->s, A->nrow_max, A->rec_cap, 0, 0, 0};
   int t1 = (k + 1) * A->seg < T ? (k + 1) * A->seg : T;
-  osti_worldRollout(m, L, al.cur, al.work, i, set, k * A->seg, t1, ctrl_seq, NULL, NULL, &sink);
+  osti_worldRollout(m, L, al.cur, al.work, i, set, k * A->seg, t1, ctrl_seq, NULL, NULL, NULL,
+                    &sink);
   ostBatchView v;
   ostu_batchView(&v, L, al.cur);
   if (*v.status & OST_STEP_FAILED) {

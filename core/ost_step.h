@@ -12,6 +12,7 @@
 
 #include <math.h>
 
+#include "ost_activation.h"
 #include "ost_adjoint.h"
 #include "ost_geometric.h"
 #include "ost_hd.h"
@@ -558,9 +559,10 @@ typedef struct ostRecordSink_ {    // where osti_stepNative records committed su
 } ostRecordSink;
 
 
-// record the substep just solved in the world (q- in qpos_prev, size h) as sink's next record
+// record the substep just solved in the world (q- in qpos_prev, size h; controls ctrl as given,
+// activations act- at its start) as sink's next record
 OST_HD void osti_recordSubstep(ostRecordSink* sink, const ostWorld* w, const ostNum* qpos_prev,
-                               const ostNum* ctrl, ostNum h) {
+                               const ostNum* ctrl, const ostNum* act_prev, ostNum h) {
   ostSizes s = sink->s;
   if (sink->n++ >= sink->cap) {
     return;
@@ -577,6 +579,7 @@ OST_HD void osti_recordSubstep(ostRecordSink* sink, const ostWorld* w, const ost
     r.qvel[j] = (double)w->qvel[j];
   }
   for (int a = 0; a < s.nu; a++) r.ctrl[a] = (double)ctrl[a];
+  for (int a = 0; a < s.na; a++) r.act_prev[a] = (double)act_prev[a];
   for (int i = 0; i < w->nrow; i++) {
     r.lambda[i] = (double)w->lambda[i];
     ((ostRow*)r.rows)[i] = w->rows[i];  // the double build's row (only called there)
@@ -761,27 +764,36 @@ OST_HD int osti_stepDriven(ostWorld* w, int nq, ostNum* qpos, ostNum* qpos_prev,
 
 
 typedef struct ostNativeStep_ {   // the context of a native step's callbacks
-  ostNativeGeometry g;            // its geometry
+  ostNativeGeometry g;            // its geometry; g.ctrl is `input`
   const ostNum*     qvel;         // u- of the substep (nv)
+  const ostNum*     ctrl;         // the controls as given (nu)
+  ostNum*           act;          // activations: act- of the substep, act+ once committed (na)
+  ostNum*           act_next;     // the substep's act+ (na)
+  ostNum*           input;        // its actuator inputs: clamped ctrl or act+ (nu)
   ostRecordSink*    sink;         // records of committed substeps (or NULL)
 } ostNativeStep;
 
 
-// Mt and f at (q-, u-) from core's dynamics
+// the substep's actuator inputs and act+ (eq. 8b; every substep integrates the activations over
+// its own size, as ost_step's), then Mt and f at (q-, u-) from core's dynamics
 OST_HD int osti_nativeStepStart(void* ctx, ostNum h) {
   ostNativeStep* n = (ostNativeStep*)ctx;
-  osti_nativeStart(n->g.m, n->g.k, n->g.w, n->g.qpos, n->qvel, n->g.ctrl, NULL, NULL, h);
+  osti_actuation(n->g.m, n->ctrl, n->act, h, n->act_next, n->input);
+  osti_nativeStart(n->g.m, n->g.k, n->g.w, n->g.qpos, n->qvel, n->input, NULL, NULL, h);
   return 0;
 }
 
 
-// a committed substep into the record sink
+// a committed substep into the record sink (with its act-), then act = act+
 OST_HD int osti_nativeStepCommit(void* ctx, ostNum h, const ostNewtonStats* st, int bits) {
   ostNativeStep* n = (ostNativeStep*)ctx;
   (void)st;
   if (n->sink) {
-    osti_recordSubstep(n->sink, n->g.w, n->g.qpos_prev, n->g.ctrl, h);
+    osti_recordSubstep(n->sink, n->g.w, n->g.qpos_prev, n->ctrl, n->act, h);
     n->sink->bits |= bits;
+  }
+  for (int j = 0; j < n->g.m->s.na; j++) {
+    n->act[j] = n->act_next[j];
   }
   return 0;
 }
@@ -794,24 +806,33 @@ OST_HD int osti_nativeFailBits(int status) {
 }
 
 
+// numbers of osti_stepNative's scratch for sizes s
+#define OST_STEP_SCRATCH(s) (2 * (s).nq + (s).nv + 3 * (s).na + (s).nu)
+
 // one Ostrich step of size set->h on core's geometry (osti_stepDriven), in place on (qpos,
-// qvel, qacc_warm), with MuJoCo's quaternion normalization before and after (as ost_step's
-// mj_step1 and publication), so that its bits equal ost_step's with the native provider. `warm`
-// (0/1, in and out) says whether the world's last result (rows_warm) belongs to this state.
-// scratch: 2 nq + nv numbers. Returns OST_STEP_* bits: on a failure bit the state is restored to
-// the step's start. *substeps and *worst get the substeps taken and their largest best merit.
-// sink (or NULL) records every committed substep for the backward pass.
+// qvel, act, qacc_warm), with MuJoCo's quaternion normalization before and after (as ost_step's
+// mj_step1 and publication), so that its bits equal ost_step's with the native provider. ctrl:
+// the controls as given (nu); act: the activations (na; may be NULL when na = 0), integrated
+// implicitly with each substep (core/ost_activation.h). `warm` (0/1, in and out) says whether
+// the world's last result (rows_warm) belongs to this state. scratch: OST_STEP_SCRATCH(m->s)
+// numbers. Returns OST_STEP_* bits: on a failure bit the state is restored to the step's start.
+// *substeps and *worst get the substeps taken and their largest best merit. sink (or NULL)
+// records every committed substep for the backward pass.
 OST_HD int osti_stepNative(const ostModel* m, ostKin* k, ostWorld* w, ostNum* qpos, ostNum* qvel,
-                           const ostNum* ctrl, ostNum* qacc_warm, int* warm, ostNum* scratch,
-                           const ostStepSettings* set, int* substeps, ostNum* worst,
-                           ostRecordSink* sink) {
-  int nq = m->s.nq, nv = m->s.nv, status;
-  ostNum* qpos_prev = scratch;       // q- of the substep (nq)
-  ostNum* qpos_start = scratch + nq; // the step's start, for a failure (nq, then nv)
+                           ostNum* act, const ostNum* ctrl, ostNum* qacc_warm, int* warm,
+                           ostNum* scratch, const ostStepSettings* set, int* substeps,
+                           ostNum* worst, ostRecordSink* sink) {
+  int nq = m->s.nq, nv = m->s.nv, na = m->s.na, status;
+  ostNum* qpos_prev = scratch;                   // q- of the substep (nq)
+  ostNum* qpos_start = scratch + nq;             // the step's start, for a failure (nq, nv, na)
+  ostNum* act_next = qpos_start + nq + nv + na;  // a substep's act+ (na)
+  ostNum* input = act_next + na;                 // and its actuator inputs (nu)
   osti_normalizeQuat(m, qpos);
   for (int i = 0; i < nq; i++) qpos_start[i] = qpos[i];
   for (int j = 0; j < nv; j++) qpos_start[nq + j] = qvel[j];
-  ostNativeStep n = {{m, k, w, qpos_prev, qpos, ctrl, set->lookahead}, qvel, sink};
+  for (int j = 0; j < na; j++) qpos_start[nq + nv + j] = act[j];
+  ostNativeStep n = {{m, k, w, qpos_prev, qpos, input, set->lookahead}, qvel, ctrl, act, act_next,
+                     input, sink};
   ostStepDriver drv = {&n, osti_nativeStepStart, osti_nativeGeometry, NULL, osti_nativeStepCommit,
                        osti_nativeFailBits, NULL, NULL, 0};
   int bits = osti_stepDriven(w, nq, qpos, qpos_prev, qvel, qacc_warm, warm, set, &drv, substeps,
@@ -819,6 +840,7 @@ OST_HD int osti_stepNative(const ostModel* m, ostKin* k, ostWorld* w, ostNum* qp
   if (bits & OST_STEP_FAILED) {
     for (int i = 0; i < nq; i++) qpos[i] = qpos_start[i];
     for (int j = 0; j < nv; j++) qvel[j] = qpos_start[nq + j];
+    for (int j = 0; j < na; j++) act[j] = qpos_start[nq + nv + j];
     *warm = 0;
     return bits;
   }

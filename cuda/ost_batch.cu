@@ -21,13 +21,15 @@ static int blocks(int n) {
 
 __global__ void ost_batchRollout_kernel(ostModel m, ostBatchLayout L, char* worlds, char* lanes,
                                         ostStepSettings set, int nstep, const ostNum* ctrl,
-                                        ostNum* qpos, ostNum* qvel, char* kept, int every) {
+                                        ostNum* qpos, ostNum* qvel, ostNum* act, char* kept,
+                                        int every) {
   int l = blockIdx.x * blockDim.x + threadIdx.x;
   if (l >= L.nlane) {
     return;  // guard first
   }
   for (int i = l; i < L.nworld; i += L.nlane) {
-    osti_batchRollout(&m, &L, worlds, lanes, i, l, &set, nstep, ctrl, qpos, qvel, kept, every);
+    osti_batchRollout(&m, &L, worlds, lanes, i, l, &set, nstep, ctrl, qpos, qvel, act, kept,
+                      every);
   }
 }
 
@@ -173,20 +175,25 @@ extern "C" int ost_batchCopy_gpu(void* dst_dev, const void* src_dev, size_t byte
 extern "C" int ost_batchRollout_gpu(const ostModel* m_dev, const ostBatchLayout* L,
                                     char* worlds_dev, char* lanes_dev, const ostStepSettings* set,
                                     int nstep, const ostNum* ctrl_dev, ostNum* qpos, ostNum* qvel,
-                                    char* kept_dev, int every, char* err, int err_sz) {
+                                    ostNum* act, char* kept_dev, int every, char* err,
+                                    int err_sz) {
   size_t nw = (size_t)L->nworld, T = (size_t)nstep;
-  ostNum *qpos_dev = NULL, *qvel_dev = NULL;
+  ostNum *qpos_dev = NULL, *qvel_dev = NULL, *act_dev = NULL;
   int bad = 0;
+  act = L->s.na > 0 ? act : NULL;
   if (qpos) {
     bad = cudaMalloc(&qpos_dev, T * nw * L->s.nq * sizeof(ostNum)) != cudaSuccess;
   }
   if (!bad && qvel) {
     bad = cudaMalloc(&qvel_dev, T * nw * L->s.nv * sizeof(ostNum)) != cudaSuccess;
   }
+  if (!bad && act) {
+    bad = cudaMalloc(&act_dev, T * nw * L->s.na * sizeof(ostNum)) != cudaSuccess;
+  }
   if (!bad) {
     ost_batchRollout_kernel<<<blocks(L->nlane), OST_BLOCK>>>(*m_dev, *L, worlds_dev, lanes_dev,
                                                              *set, nstep, ctrl_dev, qpos_dev,
-                                                             qvel_dev, kept_dev, every);
+                                                             qvel_dev, act_dev, kept_dev, every);
     bad = cudaGetLastError() != cudaSuccess || cudaDeviceSynchronize() != cudaSuccess;
   }
   if (!bad && qpos) {
@@ -197,9 +204,14 @@ extern "C" int ost_batchRollout_gpu(const ostModel* m_dev, const ostBatchLayout*
     bad = cudaMemcpy(qvel, qvel_dev, T * nw * L->s.nv * sizeof(ostNum), cudaMemcpyDeviceToHost)
           != cudaSuccess;
   }
+  if (!bad && act) {
+    bad = cudaMemcpy(act, act_dev, T * nw * L->s.na * sizeof(ostNum), cudaMemcpyDeviceToHost)
+          != cudaSuccess;
+  }
   cudaError_t e = cudaGetLastError();
   cudaFree(qpos_dev);
   cudaFree(qvel_dev);
+  cudaFree(act_dev);
   OST_CUDA_CHECK(bad ? (e != cudaSuccess ? e : cudaErrorUnknown) : cudaSuccess);
   return 0;
 }

@@ -61,8 +61,8 @@ int ost_batchField_gpu(const ostBatchLayout* L, char* worlds_dev, size_t offset,
 // every `every` steps
 int ost_batchRollout_gpu(const ostModel* m_dev, const ostBatchLayout* L, char* worlds_dev,
                          char* lanes_dev, const ostStepSettings* set, int nstep,
-                         const ostNum* ctrl_dev, ostNum* qpos, ostNum* qvel, char* kept_dev,
-                         int every, char* err, int err_sz);
+                         const ostNum* ctrl_dev, ostNum* qpos, ostNum* qvel, ostNum* act,
+                         char* kept_dev, int every, char* err, int err_sz);
 
 // the backward pass's phases 1, 2 and 4 (core/ost_batch_adjoint.h) for worlds [w0, w0 +
 // A->nlane), one GPU thread each; the last one waits for the device

@@ -94,13 +94,6 @@ ostBatch* ost_batchCreate(const mjModel* m, int nworld, const char* device, char
              "1 <= N <= %d, or \"cuda\")", device, OST_BATCH_MAX_THREADS);
     return NULL;
   }
-  if (m->na > 0) {
-    // a world's state is (qpos, qvel) here: stepping a batch would drop the activations
-    snprintf(err, err_sz, "ost_batchCreate: models with activation dynamics (na = %d) are not "
-             "supported by batches, whose world state (ost_batchSetState, ost_batchRollout) is "
-             "qpos and qvel only; step them with ost_step", m->na);
-    return NULL;
-  }
 #ifndef OSTRICH_HAVE_CUDA
   if (cuda) {
     snprintf(err, err_sz, "ost_batchCreate: this Ostrich was built without CUDA "
@@ -118,6 +111,7 @@ ostBatch* ost_batchCreate(const mjModel* m, int nworld, const char* device, char
   b->nq = m->nq;
   b->nv = m->nv;
   b->nu = m->nu;
+  b->na = m->na;
   if (packBatchModel(b, m, err, err_sz)) {
     ost_batchDelete(b);
     return NULL;
@@ -306,7 +300,8 @@ int ost_batchSetState(ostBatch* b, const mjtNum* qpos, const mjtNum* qvel) {
   if (!b) return -1;
   int nw = b->L.nworld, status = OST_OK;
   ostNum* q = qpos ? NULL : tiled(nw, b->nq, b->qpos0);
-  ostNum* zero = tiled(nw, b->nv > 1 ? b->nv : 1, NULL);
+  int nzero = b->nv > b->na ? b->nv : b->na;
+  ostNum* zero = tiled(nw, nzero > 1 ? nzero : 1, NULL);
   int* izero = (int*)calloc(nw, sizeof(int));
   if ((!qpos && !q) || !zero || !izero) {
     status = ost_batchFail(b, OST_ERR_MEMORY, "ost_batchSetState: out of memory");
@@ -316,6 +311,7 @@ int ost_batchSetState(ostBatch* b, const mjtNum* qpos, const mjtNum* qvel) {
     // state, then everything a step carries over: time, warm start, outcome bits
     status = field(b, L->qpos, sizeof(ostNum) * b->nq, qpos ? (void*)qpos : q, 1)
              || field(b, L->qvel, sizeof(ostNum) * b->nv, qvel ? (void*)qvel : zero, 1)
+             || field(b, L->act, sizeof(ostNum) * b->na, zero, 1)
              || field(b, L->qacc_warm, sizeof(ostNum) * b->nv, zero, 1)
              || field(b, L->time, sizeof(ostNum), zero, 1)
              || field(b, L->residual, sizeof(ostNum), zero, 1)
@@ -343,6 +339,31 @@ int ost_batchGetState(const ostBatch* b, mjtNum* qpos, mjtNum* qvel) {
     return OST_ERR_MEMORY;
   }
   return OST_OK;
+}
+
+
+int ost_batchSetAct(ostBatch* b, const mjtNum* act) {
+  if (!b) return -1;
+  if (!act && b->na > 0) return -2;
+  int nw = b->L.nworld;
+  int* izero = (int*)calloc(nw, sizeof(int));
+  if (!izero) {
+    return ost_batchFail(b, OST_ERR_MEMORY, "ost_batchSetAct: out of memory");
+  }
+  // the warm start belongs to the state it came from (ost_step, too, starts cold after an edit
+  // of d->act)
+  int status = field(b, b->L.act, sizeof(ostNum) * b->na, (void*)act, 1)
+               || field(b, b->L.warm, sizeof(int), izero, 1)
+               || field(b, b->L.nrow_warm, sizeof(int), izero, 1) ? OST_ERR_MEMORY : OST_OK;
+  free(izero);
+  return status;
+}
+
+
+int ost_batchGetAct(const ostBatch* b, mjtNum* act) {
+  if (!b) return -1;
+  if (!act && b->na > 0) return -2;
+  return field((ostBatch*)b, b->L.act, sizeof(ostNum) * b->na, act, 0);
 }
 
 
@@ -392,7 +413,8 @@ static void* cpuChunkRun(void* arg) {
   const cpuChunk* c = (const cpuChunk*)arg;
   for (int i = c->w0; i < c->w1; i++) {
     osti_batchRollout(&c->b->model, &c->b->L, c->b->worlds, c->b->lanes, i, c->lane, &c->b->set,
-                      c->nstep, c->ctrl, c->qpos, c->qvel, c->b->rec_nstep ? c->b->kept : NULL,
+                      c->nstep, c->ctrl, c->qpos, c->qvel, c->act,
+                      c->b->rec_nstep ? c->b->kept : NULL,
                       c->b->kept_every);
   }
   return NULL;
@@ -482,6 +504,12 @@ static int recordInputs(ostBatch* b, int nstep, const ostNum* ctrl) {
 
 
 int ost_batchRollout(ostBatch* b, int nstep, const mjtNum* ctrl, mjtNum* qpos, mjtNum* qvel) {
+  return ost_batchRolloutAct(b, nstep, ctrl, qpos, qvel, NULL);
+}
+
+
+int ost_batchRolloutAct(ostBatch* b, int nstep, const mjtNum* ctrl, mjtNum* qpos, mjtNum* qvel,
+                        mjtNum* act) {
   if (!b) return -1;
   if (nstep < 0) return -2;
   if (nstep == 0) {
@@ -501,7 +529,7 @@ int ost_batchRollout(ostBatch* b, int nstep, const mjtNum* ctrl, mjtNum* qpos, m
               && ost_batchUpload_gpu((void**)&ctrl_dev, ctrl, nctrl * sizeof(ostNum), b->err,
                                      sizeof(b->err));
     bad = bad || ost_batchRollout_gpu(&b->model_dev, &b->L, b->worlds, b->lanes, &b->set, nstep,
-                                      ctrl ? ctrl_dev : NULL, qpos, qvel,
+                                      ctrl ? ctrl_dev : NULL, qpos, qvel, act,
                                       b->rec_nstep ? b->kept : NULL, b->kept_every, b->err,
                                       sizeof(b->err));
     if (ctrl_dev != b->rec_ctrl) {
@@ -510,7 +538,8 @@ int ost_batchRollout(ostBatch* b, int nstep, const mjtNum* ctrl, mjtNum* qpos, m
     return bad ? OST_ERR_MEMORY : OST_OK;
   }
 #endif
-  ost_batchRunChunks(b, cpuChunkRun, (cpuChunk){.b = b, .nstep = nstep, .ctrl = ctrl, .qpos = qpos, .qvel = qvel});
+  ost_batchRunChunks(b, cpuChunkRun, (cpuChunk){.b = b, .nstep = nstep, .ctrl = ctrl,
+                                                 .qpos = qpos, .qvel = qvel, .act = act});
   return OST_OK;
 }
 

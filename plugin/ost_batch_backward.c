@@ -247,7 +247,7 @@ int ost_batchBackwardParams(ostBatch* b, const ostGradOptions* go, int checkpoin
       memset(gctrl, 0, sizeof(ostNum) * (size_t)T * nw * b->nu);
     }
     cpuChunk proto = {b, 0, 0, 0, T, NULL, NULL, NULL, &A, &as, gq, gu, gctrl,
-                      nparam ? gtheta : NULL, gq0, gu0};
+                      nparam ? gtheta : NULL, gq0, gu0, NULL};
     ost_batchRunChunks(b, backChunkRun, proto);
   }
   // entries MuJoCo does not read as parameters have no derivative (ost_paramDifferentiable);

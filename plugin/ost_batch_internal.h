@@ -38,7 +38,7 @@
 struct ostBatch_ {
   int             cuda;           // 1: worlds live on the GPU
   int             nthread;        // CPU threads (cpu device)
-  int             nq, nv, nu;     // the model's sizes
+  int             nq, nv, nu, na; // the model's sizes
   ostStepSettings set;            // solver settings from the model's options
   ostOptions      opt;            // the model's options
   ostModel        model;          // packed model (host)
@@ -93,6 +93,7 @@ typedef struct cpuChunk_ {        // one thread's share: worlds [w0, w1) in lane
   ostNum*               gtheta;
   ostNum*               gq0;
   ostNum*               gu0;
+  ostNum*               act;      // forward: the activations after each step (or NULL)
 } cpuChunk;
 
 

@@ -442,12 +442,22 @@ OSTAPI void ost_batchDelete(ostBatch* b);
 // Number of worlds.
 OSTAPI int ost_batchWorlds(const ostBatch* b);
 
-// Set every world's state: qpos (nworld x nq) and qvel (nworld x nv); NULL = qpos0 / rest. Time,
-// warm start and outcome bits are reset.
+// Set every world's state: qpos (nworld x nq) and qvel (nworld x nv); NULL = qpos0 / rest. The
+// activations (models with activation dynamics, na > 0) are reset to 0, as mj_resetData does;
+// time, warm start and outcome bits are reset.
 OSTAPI int ost_batchSetState(ostBatch* b, const mjtNum* qpos, const mjtNum* qvel);
 
 // Copy every world's state out: qpos (nworld x nq), qvel (nworld x nv); either may be NULL.
 OSTAPI int ost_batchGetState(const ostBatch* b, mjtNum* qpos, mjtNum* qvel);
+
+// Set every world's activations act (nworld x na), the rest of the state of a model with
+// activation dynamics; they advance implicitly with each step, as ost_step's. Call it after
+// ost_batchSetState (which zeroes them) and before the rollout to be differentiated: the
+// backward pass starts from them. Drops the warm start, like any change of state.
+OSTAPI int ost_batchSetAct(ostBatch* b, const mjtNum* act);
+
+// Copy every world's activations out (nworld x na).
+OSTAPI int ost_batchGetAct(const ostBatch* b, mjtNum* act);
 
 // Set every world's controls (nworld x nu), used by the following steps.
 OSTAPI int ost_batchSetCtrl(ostBatch* b, const mjtNum* ctrl);
@@ -460,6 +470,11 @@ OSTAPI int ost_batchStep(ostBatch* b);
 // nv) receive the state after each step (NULL: not kept).
 OSTAPI int ost_batchRollout(ostBatch* b, int nstep, const mjtNum* ctrl, mjtNum* qpos, mjtNum* qvel);
 
+// ost_batchRollout, and act (nstep x nworld x na, or NULL) receives the activations after each
+// step, the rest of the state of a model with activation dynamics.
+OSTAPI int ost_batchRolloutAct(ostBatch* b, int nstep, const mjtNum* ctrl, mjtNum* qpos,
+                               mjtNum* qvel, mjtNum* act);
+
 // Let the following rollouts from a set state keep every world's state every `every` steps (0,
 // the default: keep none), so that ost_batchBackward with checkpoint `every` starts from them
 // instead of replaying the rollout to make them: one replay fewer per backward pass, for
@@ -469,7 +484,9 @@ OSTAPI int ost_batchKeepCheckpoints(ostBatch* b, int every);
 // Gradients of a loss of the last rollout, which must have started right after
 // ost_batchSetState (cpu and cuda alike, same bits). gq, gu ((nstep + 1) x nworld x nv,
 // step-major; NULL = zero): the loss's cotangents with respect to each world's state after each
-// step, row 0 the start (qpos as a tangent vector, see ost_tapeBackward). Returns gctrl
+// step, row 0 the start (qpos as a tangent vector, see ost_tapeBackward); with activations
+// (na > 0) the loss is a function of (q, u), and the controls' gradient includes their path
+// through the activations, as ost_tapeBackward's. Returns gctrl
 // (nstep x nworld x nu) and gq0, gu0 (nworld x nv); any may be NULL. Each world's rollout is
 // replayed from its start with a checkpoint every `checkpoint` steps (0 = one segment; no replay
 // if the rollout kept them, ost_batchKeepCheckpoints), then segment by segment backward: the

@@ -1,6 +1,7 @@
 // test_batch_gpu.c: the CUDA batch equals the CPU batch (ctest label `gpu`; the CPU half runs in
 // CI as `--device cpu:1` against `cpu`). A mixed batch of one model: every world starts from
-// its own perturbation of qpos0 and gets its own random controls each step; every 7th world
+// its own perturbation of qpos0 (and of the activations, for a model with activation dynamics)
+// and gets its own random controls each step; every 7th world
 // gets a NaN control at step T/3, and with --nconmax K a small contact capacity makes some
 // worlds overflow. Both devices run the same rollout and its backward pass (random cotangents
 // at every step, segment checkpoints every S steps; with --keep the device under test takes
@@ -39,6 +40,7 @@ static double uniform(unsigned* seed, double lo, double hi) {
 
 typedef struct runOut_ {           // one device's rollout and gradients
   mjtNum *qpos, *qvel;            // T x nworld x nq, nv
+  mjtNum *act;                    // nworld x na: the activations after the rollout
   mjtNum *gctrl, *g0;             // T x nworld x nu; gq0 then gu0 (nworld x nv each)
   mjtNum *gth;                    // nworld x nparam: the parameters' gradients
   int*    status;                 // after the backward pass
@@ -48,8 +50,8 @@ typedef struct runOut_ {           // one device's rollout and gradients
 
 // run the batch on device forward and backward; returns 0 or -1
 static int run(const mjModel* m, const char* device, int nworld, int T, int checkpoint, int keep,
-               const mjtNum* q0, const mjtNum* ctrl, const mjtNum* gq, const mjtNum* gu,
-               runOut* o) {
+               const mjtNum* q0, const mjtNum* act0, const mjtNum* ctrl, const mjtNum* gq,
+               const mjtNum* gu, runOut* o) {
   char err[1000];
   ostBatch* b = ost_batchCreate(m, nworld, device, err, sizeof(err));
   if (!b) {
@@ -58,7 +60,8 @@ static int run(const mjModel* m, const char* device, int nworld, int T, int chec
   }
   double t0 = now();
   int rc = ost_batchKeepCheckpoints(b, keep ? checkpoint : 0) || ost_batchSetState(b, q0, NULL)
-           || ost_batchRollout(b, T, ctrl, o->qpos, o->qvel);
+           || (m->na && ost_batchSetAct(b, act0)) || ost_batchRollout(b, T, ctrl, o->qpos, o->qvel)
+           || (m->na && ost_batchGetAct(b, o->act));
   double t1 = now();
   ostGradOptions go;
   ost_defaultGradOptions(&go);
@@ -76,8 +79,10 @@ static int run(const mjModel* m, const char* device, int nworld, int T, int chec
 }
 
 
-static runOut allocOut(size_t nqs, size_t nvs, size_t ncs, size_t ng0, size_t nth, int nworld) {
+static runOut allocOut(size_t nqs, size_t nvs, size_t nas, size_t ncs, size_t ng0, size_t nth,
+                       int nworld) {
   runOut o = {malloc(sizeof(mjtNum) * nqs), malloc(sizeof(mjtNum) * nvs),
+              malloc(sizeof(mjtNum) * (nas + 1)),
               malloc(sizeof(mjtNum) * (ncs + 1)), malloc(sizeof(mjtNum) * ng0),
               malloc(sizeof(mjtNum) * (nth + 1)), malloc(sizeof(int) * nworld), 0, 0};
   return o;
@@ -87,6 +92,7 @@ static runOut allocOut(size_t nqs, size_t nvs, size_t ncs, size_t ng0, size_t nt
 static void freeOut(runOut* o) {
   free(o->qpos);
   free(o->qvel);
+  free(o->act);
   free(o->gctrl);
   free(o->g0);
   free(o->gth);
@@ -151,6 +157,15 @@ static int runModel(const char* path, int nworld, int T, int nconmax, int checkp
       }
     }
   }
+  // activations at the start: within actrange where limited, else in [-0.5, 0.5]
+  mjtNum* act0 = (mjtNum*)malloc(sizeof(mjtNum) * (nworld * m->na + 1));
+  for (int w = 0; w < nworld; w++) {
+    for (int a = m->nu - m->na; a < m->nu; a++) {
+      const mjtNum* r = m->actuator_actrange + 2 * a;
+      int lim = m->actuator_actlimited[a];
+      act0[w * m->na + a - (m->nu - m->na)] = uniform(&seed, lim ? r[0] : -0.5, lim ? r[1] : 0.5);
+    }
+  }
   // cotangents of the state after every step
   size_t nseq = (size_t)(T + 1) * nworld * nv;
   mjtNum *gq = malloc(sizeof(mjtNum) * nseq), *gu = malloc(sizeof(mjtNum) * nseq);
@@ -161,13 +176,16 @@ static int runModel(const char* path, int nworld, int T, int nconmax, int checkp
   size_t nqs = (size_t)T * nworld * nq, nvs = (size_t)T * nworld * nv;
   size_t ncs = (size_t)T * nworld * nu, ng0 = 2 * (size_t)nworld * nv;
   size_t nth = (size_t)nworld * ost_nparam(m);
-  runOut a = allocOut(nqs, nvs, ncs, ng0, nth, nworld), c = allocOut(nqs, nvs, ncs, ng0, nth, nworld);
-  int ok = !run(m, device, nworld, T, checkpoint, keep, q0, ctrl, gq, gu, &a)
-           && !run(m, "cpu", nworld, T, checkpoint, 0, q0, ctrl, gq, gu, &c);
+  size_t nas = (size_t)nworld * m->na;
+  runOut a = allocOut(nqs, nvs, nas, ncs, ng0, nth, nworld);
+  runOut c = allocOut(nqs, nvs, nas, ncs, ng0, nth, nworld);
+  int ok = !run(m, device, nworld, T, checkpoint, keep, q0, act0, ctrl, gq, gu, &a)
+           && !run(m, "cpu", nworld, T, checkpoint, 0, q0, act0, ctrl, gq, gu, &c);
   int nstatus = 0, nfail = 0, nnan = 0, nover = 0;
   double worst = 0, gworst = 0, pworst = 0;
   if (ok) {  // (NaN in one of them is a difference: fmax would skip it)
     worst = fmax(arrayDiff(a.qpos, c.qpos, nqs), arrayDiff(a.qvel, c.qvel, nvs));
+    worst = fmax(worst, arrayDiff(a.act, c.act, nas));
     gworst = fmax(arrayDiff(a.gctrl, c.gctrl, ncs), arrayDiff(a.g0, c.g0, ng0));
     pworst = arrayDiff(a.gth, c.gth, nth);
   }
@@ -189,6 +207,7 @@ static int runModel(const char* path, int nworld, int T, int nconmax, int checkp
          a.fwd_s, c.fwd_s, device, a.bwd_s, c.bwd_s, device, nworld / (a.fwd_s + a.bwd_s),
          nworld / (c.fwd_s + c.bwd_s), ok ? "true" : "false");
   free(q0);
+  free(act0);
   free(ctrl);
   free(gq);
   free(gu);

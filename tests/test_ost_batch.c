@@ -528,6 +528,124 @@ START_TEST(test_batchErrors) {
 END_TEST
 
 
+// a world of a model with activation dynamics (tests/models/activation_pusher.xml: a filter,
+// an integrator and a muscle beside a plain motor; the arm pushes a box) steps as ost_step with
+// the native provider, activations included, bit for bit, from activations set away from 0;
+// ost_batchSetState zeroes them; and the batch's backward pass gives the tape's gradients,
+// the controls' path through the activations included
+START_TEST(test_batchActivations) {
+  ost_fixtureSetup();
+  mjModel* m = ost_fixtureLoadModel("../tests/models/activation_pusher.xml");
+  int nq = m->nq, nv = m->nv, nu = m->nu, na = m->na, T = 100;
+  ck_assert_int_eq(na, 3);
+  mjtNum act0[3] = {0.2, -0.3, 0.4}, qvel[32];
+  mjtNum* ctrl = calloc(T * 2 * nu, sizeof(mjtNum));
+  for (int t = 0; t < T; t++) {
+    for (int i = 0; i < 2; i++) {  // world 1 pushes the box over, world 0 touches it
+      mjtNum* u = ctrl + (t * 2 + i) * nu;
+      u[0] = 0.5 * sin(0.2 * t + i);
+      u[1] = -0.3 + 0.05 * cos(0.1 * t);
+      u[2] = 1 + i;
+      u[3] = 0.5 + 0.4 * sin(0.3 * t - i);
+    }
+  }
+  mjData* d = mj_makeData(m);
+  ostOptions o;
+  ck_assert_int_eq(ost_readOptions(m, &o, NULL, 0), OST_OK);
+  o.geometry = OST_GEOMETRY_NATIVE;
+  ck_assert_int_eq(ost_setOptions(m, d, &o), OST_OK);
+  char err[1000];
+  ostBatch* b = ost_batchCreate(m, 2, "cpu:2", err, sizeof(err));
+  ck_assert_msg(b != NULL, "%s", err);
+  mjtNum act2[6] = {9, 9, 9, 9, 9, 9};
+  ck_assert_int_eq(ost_batchSetAct(b, act2), OST_OK);
+  ck_assert_int_eq(ost_batchSetState(b, NULL, NULL), OST_OK);
+  ck_assert_int_eq(ost_batchGetAct(b, act2), OST_OK);
+  for (int j = 0; j < 6; j++) ck_assert_double_eq(act2[j], 0);  // reset with the state
+  ck_assert_int_eq(ost_batchSetAct(b, NULL), -2);
+  for (int j = 0; j < 6; j++) act2[j] = act0[j % 3];
+  ck_assert_int_eq(ost_batchSetAct(b, act2), OST_OK);
+
+  // forward: world 1 against ost_step, step by step
+  memcpy(d->act, act0, sizeof(act0));
+  double worst = 0, moved = 0;
+  mjtNum* qs = calloc(T * 2 * nq, sizeof(mjtNum));
+  for (int t = 0; t < T; t++) {
+    memcpy(d->ctrl, ctrl + (t * 2 + 1) * nu, nu * sizeof(mjtNum));
+    ck_assert_int_eq(ost_step(m, d), OST_OK);
+    ck_assert_int_eq(ost_batchRolloutAct(b, 1, ctrl + t * 2 * nu, qs + t * 2 * nq, NULL, act2),
+                     OST_OK);
+    ck_assert_int_eq(ost_batchGetState(b, NULL, qvel), OST_OK);
+    worst = fmax(worst, fmax(maxDiff(qs + (t * 2 + 1) * nq, d->qpos, nq),
+                             maxDiff(qvel + nv, d->qvel, nv)));
+    worst = fmax(worst, maxDiff(act2 + na, d->act, na));
+    mjtNum act_now[6];
+    ck_assert_int_eq(ost_batchGetAct(b, act_now), OST_OK);
+    worst = fmax(worst, maxDiff(act_now, act2, 2 * na));
+    for (int j = 0; j < na; j++) moved = fmax(moved, fabs(d->act[j] - act0[j]));
+  }
+  printf("batch vs ost_step (native) with activations, %d steps: max |diff| %.3g, act moved "
+         "%.3g, box x %.3f m\n", T, worst, moved, d->qpos[3]);
+  ck_assert_double_eq(worst, 0);  // the same functions in the same order
+  ck_assert_double_gt(moved, 0.3);  // the activations did move
+  ck_assert_double_gt(d->qpos[3], 0.55);  // world 1 pushed the box from x = 0.5 m
+
+  // backward: both worlds against their tapes (forward_only: the batch's path, the same bits)
+  ostGradOptions go;
+  ost_defaultGradOptions(&go);
+  go.forward_only = 1;
+  mjtNum *gq = calloc((T + 1) * 2 * nv, 8), *gu = calloc((T + 1) * 2 * nv, 8);
+  for (int i = 0; i < (T + 1) * 2 * nv; i++) {
+    gq[i] = sin(1.3 * i);
+    gu[i] = 0.1 * cos(0.7 * i);
+  }
+  mjtNum *gctrl = calloc(T * 2 * nu, 8), *g0 = calloc(4 * nv, 8);
+  ck_assert_int_eq(ost_batchSetState(b, NULL, NULL), OST_OK);
+  ck_assert_int_eq(ost_batchSetAct(b, act2), OST_OK);  // (act0 in both worlds: act2 rows)
+  for (int j = 0; j < 6; j++) act2[j] = act0[j % 3];
+  ck_assert_int_eq(ost_batchSetAct(b, act2), OST_OK);
+  ck_assert_int_eq(ost_batchRollout(b, T, ctrl, NULL, NULL), OST_OK);
+  ck_assert_int_eq(ost_batchBackward(b, &go, 7, gq, gu, gctrl, g0, g0 + 2 * nv), OST_OK);
+  ostTape* tape = ost_tapeCreate(m, 0);
+  mjtNum *tq = calloc((T + 1) * nv, 8), *tu = calloc((T + 1) * nv, 8), *tc = calloc(T * nu, 8);
+  mjtNum tq0[16], tu0[16];
+  double gworst = 0, scale = 0, through_act = 0;
+  for (int i = 0; i < 2; i++) {
+    mj_resetData(m, d);
+    memcpy(d->act, act0, sizeof(act0));
+    ost_tapeClear(tape);
+    for (int t = 0; t < T; t++) {
+      memcpy(d->ctrl, ctrl + (t * 2 + i) * nu, nu * sizeof(mjtNum));
+      ck_assert_int_eq(ost_tapeStep(tape, m, d), OST_OK);
+    }
+    for (int t = 0; t <= T; t++) {
+      memcpy(tq + t * nv, gq + (t * 2 + i) * nv, nv * sizeof(mjtNum));
+      memcpy(tu + t * nv, gu + (t * 2 + i) * nv, nv * sizeof(mjtNum));
+    }
+    ck_assert_int_eq(ost_tapeBackward(tape, m, &go, tq, tu, tc, tq0, tu0, NULL), OST_OK);
+    for (int t = 0; t < T; t++) {
+      for (int a = 0; a < nu; a++) {
+        double y = tc[t * nu + a];
+        gworst = fmax(gworst, fabs(gctrl[(t * 2 + i) * nu + a] - y));
+        scale = fmax(scale, fabs(y));
+        if (a > 0 && t < T - 1) through_act = fmax(through_act, fabs(y));
+      }
+    }
+    gworst = fmax(gworst, fmax(maxDiff(g0 + i * nv, tq0, nv), maxDiff(g0 + (2 + i) * nv, tu0, nv)));
+  }
+  printf("batch backward with activations vs tape: max |diff| %.3g (largest gradient %.3g)\n",
+         gworst, scale);
+  ck_assert_double_gt(through_act, 0);  // the stateful actuators' controls act through act+
+  ck_assert_double_eq(gworst, 0);  // the same records and the same Jacobians: the same bits
+  ost_tapeDelete(tape);
+  ost_batchDelete(b);
+  ost_deleteData(d);
+  free(ctrl); free(qs); free(gq); free(gu); free(gctrl); free(g0); free(tq); free(tu); free(tc);
+  mj_deleteModel(m);
+}
+END_TEST
+
+
 static Suite* suite(void) {
   Suite* s = suite_create("ost_batch");
   TCase* tc = tcase_create("batch");
@@ -538,6 +656,7 @@ static Suite* suite(void) {
   tcase_add_test(tc, test_batchBackwardEqualsTape);
   tcase_add_test(tc, test_batchBackwardRecordCapacity);
   tcase_add_test(tc, test_batchErrors);
+  tcase_add_test(tc, test_batchActivations);
   suite_add_tcase(s, tc);
   return s;
 }

@@ -53,29 +53,21 @@ OSTPY_API const char* ostpy_tapeError(const ostpyTape* t) {
 
 
 // Record nstep Ostrich steps from p's state with controls ctrl (nstep x nu; NULL: keep d's),
-// after forgetting the tape's last rollout. qpos ((nstep + 1) x nq) and qvel ((nstep + 1) x nv)
-// receive every state, the start first; status (nstep) each step's ost_step status; any may be
-// NULL. Returns OST_OK, OST_WARN_NOT_CONVERGED if a step warned (the rollout went on; the
+// after forgetting the tape's last rollout. qpos ((nstep + 1) x nq), qvel ((nstep + 1) x nv)
+// and act ((nstep + 1) x na) receive every state, the start first; status (nstep) each step's
+// ost_step status; any may be NULL. Returns OST_OK, OST_WARN_NOT_CONVERGED if a step warned (the rollout went on; the
 // backward pass will refuse it), or the error of the step that failed (message in
 // ostpy_tapeError; the rollout stops there and t->nstep counts the steps taken).
 OSTPY_API int ostpy_rollout(ostpyPhysics* p, ostpyTape* t, int nstep, const mjtNum* ctrl,
-                            mjtNum* qpos, mjtNum* qvel, int* status) {
+                            mjtNum* qpos, mjtNum* qvel, mjtNum* act, int* status) {
   const mjModel* m = p->m;
   mjData* d = p->d;
-  int nq = m->nq, nv = m->nv, nu = m->nu, result = OST_OK;
+  int nq = m->nq, nv = m->nv, nu = m->nu, na = m->na, result = OST_OK;
   t->err[0] = 0;
   t->nstep = 0;
   ost_tapeClear(t->tape);
   if (nstep < 0) {
     return ostpy_fail(t->err, -3, "the number of steps is negative");
-  }
-  if (m->na > 0) {
-    // the rollout's trajectory and start-state gradients are (qpos, qvel): act would be dropped
-    char msg[256];
-    snprintf(msg, sizeof(msg), "rollouts of models with activation dynamics (na = %d) are not "
-             "supported: their trajectory and gradients carry qpos and qvel only; step them with "
-             "Physics.step", m->na);
-    return ostpy_fail(t->err, OST_ERR_MODEL, msg);
   }
   if (t->cap < nstep + 1) {
     mjtNum* grown = (mjtNum*)realloc(t->qpos, sizeof(mjtNum) * (size_t)(nstep + 1) * nq);
@@ -92,6 +84,9 @@ OSTPY_API int ostpy_rollout(ostpyPhysics* p, ostpyTape* t, int nstep, const mjtN
   }
   if (qvel) {
     mju_copy(qvel, d->qvel, nv);
+  }
+  if (act) {
+    mju_copy(act, d->act, na);
   }
   for (int k = 0; k < nstep; k++) {
     if (ctrl) {
@@ -123,6 +118,9 @@ OSTPY_API int ostpy_rollout(ostpyPhysics* p, ostpyTape* t, int nstep, const mjtN
     }
     if (qvel) {
       mju_copy(qvel + (size_t)(k + 1) * nv, d->qvel, nv);
+    }
+    if (act) {
+      mju_copy(act + (size_t)(k + 1) * na, d->act, na);
     }
   }
   return result;

@@ -2,7 +2,9 @@
 threads, or a GPU in a CUDA build), and the batch's differentiable rollouts.
 
 Arrays are world-major within a step: state (nworld x nq), controls of a rollout
-(T x nworld x nu), its states ((T + 1) x nworld x nq, the start first). The batch takes its
+(T x nworld x nu), its states ((T + 1) x nworld x nq, the start first). A model with activation
+dynamics (na > 0) also carries each world's activations (nworld x na), integrated implicitly
+with the step as Physics.step does. The batch takes its
 options from the model's ostrich/* numerics (Physics.set_options does not reach it), and the
 model must pass ost_checkNative. Cotangents and gradients of qpos follow rollout.py's
 convention: qpos coordinates unless tangent=True.
@@ -56,7 +58,8 @@ class Batch:
 
   def set_state(self, qpos=None, qvel=None):
     """Set every world's state (nworld x nq, nworld x nv; one row is broadcast; None: qpos0 /
-    rest). Time, warm start and outcome bits are reset."""
+    rest). Activations are reset to 0 (set_act sets them); time, warm start and outcome bits
+    are reset."""
     p = self.physics
     qpos = None if qpos is None else self._array(qpos, (self.nworld, p.nq), "qpos")
     qvel = None if qvel is None else self._array(qvel, (self.nworld, p.nv), "qvel")
@@ -69,6 +72,18 @@ class Batch:
     qvel = np.zeros((self.nworld, self.physics.nv))
     self._check(_lib_.ost_batchGetState(self._ptr, _lib.dptr(qpos), _lib.dptr(qvel)), "state")
     return qpos, qvel
+
+  def set_act(self, act):
+    """Set every world's activations (nworld x na; one row is broadcast)."""
+    act = self._array(act, (self.nworld, self.physics.na), "act")
+    self._check(_lib_.ost_batchSetAct(self._ptr, _lib.dptr(act)), "set_act")
+
+  @property
+  def act(self):
+    """Every world's activations: nworld x na."""
+    out = np.zeros((self.nworld, self.physics.na))
+    self._check(_lib_.ost_batchGetAct(self._ptr, _lib.dptr(out)), "act")
+    return out
 
   def set_ctrl(self, ctrl):
     """Set every world's controls (nworld x nu) for the following steps."""
@@ -94,17 +109,21 @@ class Batch:
     self._check(_lib_.ost_batchUnconverged(self._ptr, _lib.iptr(out)), "unconverged")
     return out
 
-  def rollout(self, actions, qpos0=None, qvel0=None):
-    """Set the state (qpos0, qvel0: nworld x nq, nworld x nv, one row broadcast; None: the
-    worlds' current state), run T = len(actions) steps with actions (T x nworld x nu), and
-    return a BatchRollout (unpacks as qpos (T + 1) x nworld x nq, qvel (T + 1) x nworld x nv).
-    Worlds with unconverged steps warn; their gradients will be refused."""
+  def rollout(self, actions, qpos0=None, qvel0=None, act0=None):
+    """Set the state (qpos0, qvel0: nworld x nq, nworld x nv; act0: nworld x na; one row
+    broadcast; None: the worlds' current state), run T = len(actions) steps with actions
+    (T x nworld x nu), and return a BatchRollout (unpacks as qpos (T + 1) x nworld x nq, qvel
+    (T + 1) x nworld x nv; .act (T + 1) x nworld x na). Worlds with unconverged steps warn;
+    their gradients will be refused."""
     p = self.physics
     if qpos0 is None or qvel0 is None:
       qpos_now, qvel_now = self.state()
       qpos0 = qpos_now if qpos0 is None else qpos0
       qvel0 = qvel_now if qvel0 is None else qvel0
+    act0 = self.act if act0 is None else act0
     self.set_state(qpos0, qvel0)
+    if p.na:
+      self.set_act(act0)
     actions = np.asarray(actions, dtype=np.float64)
     if actions.ndim == 2:  # the same controls for every world
       actions = np.broadcast_to(actions[:, None, :], (len(actions), self.nworld, actions.shape[1]))
@@ -115,10 +134,13 @@ class Batch:
     steps = len(actions)
     qpos = np.zeros((steps + 1, self.nworld, p.nq))
     qvel = np.zeros((steps + 1, self.nworld, p.nv))
+    act = np.zeros((steps + 1, self.nworld, p.na))
     qpos[0], qvel[0] = self.state()
-    self._check(_lib_.ost_batchRollout(self._ptr, steps, _lib.dptr(actions), _lib.dptr(qpos[1:]),
-                                       _lib.dptr(qvel[1:])), "rollout")
-    out = BatchRollout(qpos, qvel, self)
+    act[0] = self.act
+    self._check(_lib_.ost_batchRolloutAct(self._ptr, steps, _lib.dptr(actions),
+                                          _lib.dptr(qpos[1:]), _lib.dptr(qvel[1:]),
+                                          _lib.dptr(act[1:])), "rollout")
+    out = BatchRollout(qpos, qvel, self, act)
     bad = np.flatnonzero(out.unconverged)
     if len(bad):
       warnings.warn(NotConvergedWarning(
@@ -128,12 +150,13 @@ class Batch:
 
 
 class BatchRollout(tuple):
-  """(qpos, qvel) of a batch rollout; backward(...) differentiates it. unconverged: each
-  world's unconverged steps; failed: each world's outcome bits (0 if its rollout went through)."""
+  """(qpos, qvel) of a batch rollout; backward(...) differentiates it. act: the activations
+  ((T + 1) x nworld x na); unconverged: each world's unconverged steps; status: each world's
+  outcome bits (0 if its rollout went through)."""
 
-  def __new__(cls, qpos, qvel, batch):
+  def __new__(cls, qpos, qvel, batch, act):
     self = super().__new__(cls, (qpos, qvel))
-    self.qpos, self.qvel, self._batch = qpos, qvel, batch
+    self.qpos, self.qvel, self.act, self._batch = qpos, qvel, act, batch
     self.unconverged = batch.unconverged
     self.status = batch.status
     return self

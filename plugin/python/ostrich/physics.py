@@ -162,6 +162,10 @@ class Physics:
   def nu(self):
     return self.size("nu")
 
+  @property
+  def na(self):
+    return self.size("na")
+
   def names(self, kind):
     """Names of every object of a kind ('body', 'joint', 'geom', 'site', 'actuator', 'sensor',
     'tendon', 'camera', 'key', ...), in id order; '' for an unnamed one."""

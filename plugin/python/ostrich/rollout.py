@@ -130,17 +130,19 @@ class _NamedParams:
 
 class Rollout(tuple):
   """(qpos, qvel) of a recorded rollout, (T + 1) x nq and (T + 1) x nv, the start state first;
-  unpacks as a pair. backward(...) runs the adjoint over it. `status` holds each step's
-  ost_step status, `converged` whether all converged."""
+  unpacks as a pair. `act` holds the activations ((T + 1) x na, models with activation
+  dynamics), `status` each step's ost_step status, `converged` whether all converged.
+  backward(...) runs the adjoint over it."""
 
-  def __new__(cls, qpos, qvel, tape, status):
+  def __new__(cls, qpos, qvel, tape, status, act):
     self = super().__new__(cls, (qpos, qvel))
-    self.qpos, self.qvel, self.status, self._tape = qpos, qvel, status, tape
+    self.qpos, self.qvel, self.act, self.status, self._tape = qpos, qvel, act, status, tape
     self.converged = bool(np.all(status == _lib.OK))
     return self
 
   def backward(self, cot_qpos=None, cot_qvel=None, params=True, tangent=False, truncate=False):
-    """Gradients of a loss L of the rollout's states, given its cotangents.
+    """Gradients of a loss L of the rollout's states (qpos, qvel), given its cotangents. With
+    activations the controls' gradient includes their path through them (ost_tapeBackward).
 
     cot_qpos: dL/dqpos of every state ((T + 1) x nq, or (T + 1) x nv tangent vectors with
     tangent=True); cot_qvel: dL/dqvel ((T + 1) x nv); None = zero. params: also dL/dtheta
@@ -176,11 +178,11 @@ def _rows(a, rows, cols, what):
   return a
 
 
-def rollout(physics, actions, qpos0=None, qvel0=None, checkpoint=0):
+def rollout(physics, actions, qpos0=None, qvel0=None, checkpoint=0, act0=None):
   """Record T Ostrich steps from physics' state with controls actions (T x nu); return a Rollout
-  (unpacks as qpos (T + 1) x nq, qvel (T + 1) x nv, the start state first).
+  (unpacks as qpos (T + 1) x nq, qvel (T + 1) x nv, the start state first; .act (T + 1) x na).
 
-  qpos0, qvel0: written into physics.data first (else its current state is the start). The
+  qpos0, qvel0, act0: written into physics.data first (else its current state is the start). The
   physics ends at the last state. checkpoint S > 0 keeps every S-th state only and recomputes
   during backward (ost_tapeCreate). A step that does not converge warns (NotConvergedWarning;
   the rollout goes on, backward will refuse it); a failed step raises OstrichError.
@@ -195,16 +197,20 @@ def rollout(physics, actions, qpos0=None, qvel0=None, checkpoint=0):
     physics.data.qpos[:] = qpos0
   if qvel0 is not None:
     physics.data.qvel[:] = qvel0
+  if act0 is not None:
+    physics.data.act[:] = act0
   steps = actions.shape[0]
   tape = _Tape(physics, checkpoint)
   qpos = np.zeros((steps + 1, nq))
   qvel = np.zeros((steps + 1, nv))
+  act = np.zeros((steps + 1, physics.data.act.size))
   status = np.zeros(steps, dtype=np.int32)
   result = _lib_.ostpy_rollout(physics._handle.ptr, tape.ptr, steps, _lib.dptr(actions),
-                               _lib.dptr(qpos), _lib.dptr(qvel), _lib.iptr(status))
+                               _lib.dptr(qpos), _lib.dptr(qvel), _lib.dptr(act),
+                               _lib.iptr(status))
   forward_mujoco_warnings()
   check(result, tape.error(), "rollout")
-  out = Rollout(qpos, qvel, tape, status)
+  out = Rollout(qpos, qvel, tape, status, act)
   physics._last_rollout = out
   if not out.converged:
     bad = np.flatnonzero(status != _lib.OK) + 1

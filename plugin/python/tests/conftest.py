@@ -45,6 +45,32 @@ SLIDER = """
 </mujoco>
 """
 
+# a two-link arm hanging in a vertical plane, no contact, driven through activation dynamics:
+# a position servo behind a first-order filter (tau 50 ms) on the shoulder, an integrator on
+# the elbow
+ACT_ARM = """
+<mujoco>
+  <option timestep="0.01" gravity="0 0 -9.81"/>
+  <worldbody>
+    <body name="upper" pos="0 0 1">
+      <joint name="shoulder" type="hinge" axis="0 1 0" damping="0.2"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03" mass="1" contype="0"
+            conaffinity="0"/>
+      <body name="lower" pos="0.3 0 0">
+        <joint name="elbow" type="hinge" axis="0 1 0" damping="0.1"/>
+        <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03" mass="0.5" contype="0"
+              conaffinity="0"/>
+      </body>
+    </body>
+  </worldbody>
+  <actuator>
+    <general name="servo" joint="shoulder" dyntype="filter" dynprm="0.05" gainprm="20"
+             biastype="affine" biasprm="0 -20 -2"/>
+    <general name="push" joint="elbow" dyntype="integrator" gainprm="2"/>
+  </actuator>
+</mujoco>
+"""
+
 
 @pytest.fixture
 def model_dir():

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import ostrich
-from conftest import FREE_BALL, model_path, starved_box_plane
+from conftest import ACT_ARM, FREE_BALL, model_path, starved_box_plane
 
 
 def single(physics, actions, qpos0, qvel0, cot_qpos, cot_qvel):
@@ -38,6 +38,40 @@ def test_batch_worlds_equal_single_rollouts_and_gradients():
     for batch_g, single_g in [(grads.qpos[w], g.qpos), (grads.qvel[w], g.qvel),
                               (grads.ctrl[:, w], g.ctrl)]:
       np.testing.assert_allclose(batch_g, single_g, rtol=1e-10, atol=1e-12 * abs(single_g).max())
+
+
+def test_batch_activations_equal_single_rollouts():
+  # each world's activations start from its act0 and move as a single rollout's; the state
+  # and the controls' gradients (through the activations) agree with it
+  physics = ostrich.Physics.from_xml_string(ACT_ARM)
+  nworld, steps = 3, 15
+  rng = np.random.default_rng(1)
+  qpos0 = rng.uniform(-0.3, 0.3, (nworld, 2))
+  act0 = rng.uniform(-0.5, 0.5, (nworld, 2))
+  actions = rng.uniform(-0.5, 0.5, (steps, nworld, 2))
+  batch = ostrich.Batch(physics, nworld, "cpu:2")
+  traj = batch.rollout(actions, qpos0, np.zeros((nworld, 2)), act0=act0)
+  assert traj.act.shape == (steps + 1, nworld, 2)
+  np.testing.assert_array_equal(traj.act[0], act0)
+  np.testing.assert_array_equal(batch.act, traj.act[-1])
+  cot_qpos = rng.uniform(-1, 1, traj.qpos.shape)
+  cot_qvel = rng.uniform(-1, 1, traj.qvel.shape)
+  grads = traj.backward(cot_qpos, cot_qvel)
+  for w in range(nworld):
+    one = ostrich.rollout(physics, actions[:, w], qpos0[w], np.zeros(2), act0=act0[w])
+    g = one.backward(cot_qpos[:, w], cot_qvel[:, w], params=False)
+    # the filter and integrator are the same closed forms in both; the dynamics differ by
+    # provider (native against MuJoCo's) to rounding
+    np.testing.assert_allclose(traj.act[:, w], one.act, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(traj.qpos[:, w], one.qpos, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(grads.ctrl[:, w], g.ctrl, rtol=1e-10,
+                               atol=1e-12 * abs(g.ctrl).max())
+  assert np.abs(traj.act[-1] - act0).max() > 0.1
+  # set_state zeroes the activations; set_act broadcasts one row
+  batch.set_state()
+  np.testing.assert_array_equal(batch.act, 0)
+  batch.set_act([0.1, 0.2])
+  np.testing.assert_array_equal(batch.act, [[0.1, 0.2]] * nworld)
 
 
 def test_batch_free_joint_gradient_in_coordinates():

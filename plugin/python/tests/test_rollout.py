@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import ostrich
-from conftest import FREE_BALL, model_path, starved_box_plane
+from conftest import ACT_ARM, FREE_BALL, model_path, starved_box_plane
 
 TOL = 1e-4  # normwise relative error of each gradient group
 
@@ -163,6 +163,48 @@ def test_gradient_matches_central_differences(cartpole):
   assert grads.theta.shape == (sum(grads.params[g].size for g in ostrich.PARAM_GROUPS),)
   assert grads.params["mass"].shape == (3,) and grads.params["mass"][0] == 0  # the world body
   assert grads.ctrl.shape == (25, 1)
+
+
+def test_activation_rollout_and_its_gradient():
+  # activations are part of the rollout's state: they start from act0, follow Physics.step's
+  # implicit integration, and the controls' gradient through them matches central
+  # differences of the loss (act0 held fixed)
+  physics = ostrich.Physics.from_xml_string(ACT_ARM)
+  steps, act0 = 20, np.array([0.3, -0.2])
+  qpos0, qvel0 = np.array([0.2, -0.4]), np.array([0.5, 0.0])
+  actions = np.stack([0.4 * np.sin(0.3 * np.arange(steps)), 0.5 * np.cos(0.2 * np.arange(steps))], 1)
+  traj = ostrich.rollout(physics, actions, qpos0, qvel0, act0=act0)
+  assert traj.act.shape == (steps + 1, 2) and traj.converged
+  np.testing.assert_array_equal(traj.act[0], act0)
+  physics.data.qpos[:], physics.data.qvel[:], physics.data.act[:] = qpos0, qvel0, act0
+  for k in range(steps):
+    physics.data.ctrl[:] = actions[k]
+    physics.step()
+    np.testing.assert_array_equal(physics.data.act, traj.act[k + 1])  # closed forms of ctrl
+    # (Physics.step and the tape may start Newton from different warm starts: the same
+    # solution to rounding)
+    np.testing.assert_allclose(physics.data.qpos, traj.qpos[k + 1], rtol=0, atol=1e-12)
+  assert np.abs(traj.act[-1] - act0).max() > 0.1  # the activations moved
+
+  rng = np.random.default_rng(3)
+  a, b = rng.uniform(-1, 1, traj.qpos.shape), rng.uniform(-1, 1, traj.qvel.shape)
+
+  def loss(u):
+    q, v = ostrich.rollout(physics, u, qpos0, qvel0, act0=act0)
+    return np.sum(a * q) + np.sum(b * v)
+
+  grads = ostrich.rollout(physics, actions, qpos0, qvel0, act0=act0).backward(a, b, params=False)
+  fd = np.zeros(actions.shape)
+  for i in np.ndindex(actions.shape):
+    plus, minus = actions.copy(), actions.copy()
+    plus[i] += 1e-6
+    minus[i] -= 1e-6
+    fd[i] = (loss(plus) - loss(minus)) / 2e-6
+  err = rel_err(grads.ctrl, fd)
+  print(f"activation rollout: controls' gradient vs central differences {err:.1e}")
+  assert err <= TOL
+  # the last step's controls reach the state only through act+ and its force (eq. 8b)
+  assert np.abs(grads.ctrl[-1]).max() > 0
 
 
 def test_free_joint_gradient_in_qpos_coordinates():
