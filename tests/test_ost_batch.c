@@ -22,6 +22,17 @@ static double maxDiff(const mjtNum* a, const mjtNum* b, int n) {
 }
 
 
+// new data of m whose ost_step takes the native provider, as a batch does
+static mjData* nativeData(const mjModel* m) {
+  mjData* d = mj_makeData(m);
+  ostOptions o;
+  ck_assert_int_eq(ost_readOptions(m, &o, NULL, 0), OST_OK);
+  o.geometry = OST_GEOMETRY_NATIVE;
+  ck_assert_int_eq(ost_setOptions(m, d, &o), OST_OK);
+  return d;
+}
+
+
 // the mixed batch: world i starts at qpos0 shifted by (0.15 i, 0.05 i) m and yawed by 0.03 i
 // rad; worlds 0 and 1 rest (controls 0), world i >= 2 drives at 0.6 (i - 1) rad/s with a
 // differential of 0.2 i; world `nan_world` gets a NaN control at step `nan_step`
@@ -51,11 +62,7 @@ static void mixedStart(const mjModel* m, int nworld, mjtNum* qpos, mjtNum* ctrl,
 START_TEST(test_batchEqualsStep) {
   ost_fixtureSetup();
   mjModel* m = ost_fixtureLoadModel("robot_box.xml");
-  mjData* d = mj_makeData(m);
-  ostOptions o;
-  ck_assert_int_eq(ost_readOptions(m, &o, NULL, 0), OST_OK);
-  o.geometry = OST_GEOMETRY_NATIVE;
-  ck_assert_int_eq(ost_setOptions(m, d, &o), OST_OK);
+  mjData* d = nativeData(m);
   char err[1000];
   ostBatch* b = ost_batchCreate(m, 1, "cpu:1", err, sizeof(err));
   ck_assert_msg(b != NULL, "%s", err);
@@ -307,11 +314,7 @@ START_TEST(test_batchBackwardEqualsTape) {
   // the oracle: each world through a tape
   mjtNum *tq = calloc((T + 1) * nv, 8), *tu = calloc((T + 1) * nv, 8);
   mjtNum *tc = calloc(nw * T * nu, 8), *tq0 = calloc(nw * nv, 8), *tu0 = calloc(nw * nv, 8);
-  mjData* d = mj_makeData(m);
-  ostOptions o;
-  ck_assert_int_eq(ost_readOptions(m, &o, NULL, 0), OST_OK);
-  o.geometry = OST_GEOMETRY_NATIVE;
-  ck_assert_int_eq(ost_setOptions(m, d, &o), OST_OK);
+  mjData* d = nativeData(m);
   ostTape* tape = ost_tapeCreate(m, 0);
   for (int i = 0; i < nw; i++) {
     mj_resetData(m, d);
@@ -549,11 +552,7 @@ START_TEST(test_batchActivations) {
       u[3] = 0.5 + 0.4 * sin(0.3 * t - i);
     }
   }
-  mjData* d = mj_makeData(m);
-  ostOptions o;
-  ck_assert_int_eq(ost_readOptions(m, &o, NULL, 0), OST_OK);
-  o.geometry = OST_GEOMETRY_NATIVE;
-  ck_assert_int_eq(ost_setOptions(m, d, &o), OST_OK);
+  mjData* d = nativeData(m);
   char err[1000];
   ostBatch* b = ost_batchCreate(m, 2, "cpu:2", err, sizeof(err));
   ck_assert_msg(b != NULL, "%s", err);
