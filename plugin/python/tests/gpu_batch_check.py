@@ -1,6 +1,7 @@
 """CUDA batches from Python equal CPU batches bit for bit: states, unconverged flags and
-gradients (parameters' included), on the cart-pole and the robot over the box (contacts). A script, not a pytest module
-(the GPU machine has no pytest): ctest runs it as test_python_gpu (label gpu) in CUDA builds;
+gradients (parameters' included), on the cart-pole, the robot over the box (contacts) and
+an arm pushing a box through actuators with activation dynamics (activations included). A
+script, not a pytest module (the GPU machine has no pytest): ctest runs it as test_python_gpu (label gpu) in CUDA builds;
 by hand: PYTHONPATH=BUILD/python OSTRICH_MODEL_DIR=mjcf_models python3 THIS [NWORLD]. Exit
 status 0 when every array is equal, 1 otherwise (each difference printed)."""
 
@@ -21,17 +22,19 @@ def check(name, nworld, steps, scale, seed=0):
   rng = np.random.default_rng(seed)
   actions = rng.uniform(-scale, scale, (steps, nworld, physics.nu))
   qvel0 = rng.uniform(-0.1, 0.1, (nworld, physics.nv))
+  act0 = rng.uniform(0, 0.5, (nworld, physics.na))
   out = {}
   for device in ("cpu:1", "cuda"):
     batch = ostrich.Batch(physics, nworld, device)
-    traj = batch.rollout(actions, None, qvel0)
+    traj = batch.rollout(actions, None, qvel0, act0=act0)
     crng = np.random.default_rng(seed + 1)
     cot_qpos = crng.uniform(-1, 1, traj.qpos.shape)
     cot_qvel = crng.uniform(-1, 1, traj.qvel.shape)
     grads = traj.backward(cot_qpos, cot_qvel, strict=False, params=True)
-    out[device] = (traj.qpos, traj.qvel, traj.unconverged, grads.qpos, grads.qvel, grads.ctrl,
-                   grads.theta)
-  labels = ("qpos", "qvel", "unconverged", "grad qpos0", "grad qvel0", "grad ctrl", "grad theta")
+    out[device] = (traj.qpos, traj.qvel, traj.act, traj.unconverged, grads.qpos, grads.qvel,
+                   grads.ctrl, grads.theta)
+  labels = ("qpos", "qvel", "act", "unconverged", "grad qpos0", "grad qvel0", "grad ctrl",
+            "grad theta")
   diffs = []
   for label, a, b in zip(labels, out["cpu:1"], out["cuda"]):
     a, b = np.asarray(a, float), np.asarray(b, float)
@@ -43,10 +46,12 @@ def check(name, nworld, steps, scale, seed=0):
 def main(argv):
   nworld = int(argv[1]) if len(argv) > 1 else 512
   bad = 0
-  # controls: the cart-pole's force in [-0.5, 0.5], the robot's wheel speeds in [-3, 3] rad/s
-  for name, steps, scale in (("cartpole.xml", 40, 0.5), ("robot_box.xml", 20, 3.0)):
+  # controls: the cart-pole's force in [-0.5, 0.5], the robot's wheel speeds in [-3, 3] rad/s,
+  # the pusher's in [-1, 1] (clamped to each actuator's range)
+  for name, steps, scale in (("cartpole.xml", 40, 0.5), ("robot_box.xml", 20, 3.0),
+                             ("../tests/models/activation_pusher.xml", 20, 1.0)):
     for label, same, diff in check(name, nworld, steps, scale):
-      print(f"{name:16s} {nworld} worlds  {label:12s} {'equal' if same else 'DIFFERENT'}"
+      print(f"{os.path.basename(name):21s} {nworld} worlds  {label:12s} {'equal' if same else 'DIFFERENT'}"
             f"  max diff {diff:.3g}")
       bad += not same
   print("cuda = cpu bit for bit" if not bad else f"{bad} arrays differ")
