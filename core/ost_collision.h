@@ -97,17 +97,10 @@ OST_HD int osti_collidePair(const ostModel* m, const ostKin* k, int p, ostContac
     n = osti_collideEllipsoidBox(buf, &a, &b, margin, m->mpr_tolerance, m->mpr_iterations);
     handled = 1;
   }
-  if (!handled && a.type == OST_GEOM_SPHERE && b.type == OST_GEOM_ELLIPSOID) {
-    n = osti_collideSphereEllipsoid(buf, &a, &b, margin, m->mpr_tolerance, m->mpr_iterations);
-    handled = 1;
-  }
-  if (!handled && a.type == OST_GEOM_CAPSULE && b.type == OST_GEOM_ELLIPSOID) {
-    n = osti_collideCapsuleEllipsoid(buf, &a, &b, margin, m->mpr_tolerance, m->mpr_iterations);
-    handled = 1;
-  }
   if (!handled && (a.type == OST_GEOM_SPHERE || a.type == OST_GEOM_CAPSULE)
-      && (b.type == OST_GEOM_CYLINDER || b.type == OST_GEOM_MESH)) {
-    n = osti_collideBallConvex(buf, &a, &b, margin, m->mpr_tolerance, m->mpr_iterations);
+      && (b.type == OST_GEOM_ELLIPSOID || b.type == OST_GEOM_CYLINDER
+          || b.type == OST_GEOM_MESH)) {
+    n = osti_collideBall(buf, &a, &b, margin, m->mpr_tolerance, m->mpr_iterations);
     handled = 1;
   }
   if (!handled) {

@@ -1,5 +1,6 @@
-// ost_collision_ellipsoid.h: Ostrich's own contacts of an ellipsoid with a box, a sphere and a
-// capsule (both geometry providers use them). MuJoCo 2.2.2 finds these pairs by MPR, which
+// ost_collision_ellipsoid.h: Ostrich's own contacts of an ellipsoid with a box, and the signed
+// distance of a point to an ellipsoid, which ost_collision_ball.h's sphere and capsule contacts
+// take (both geometry providers use them). MuJoCo 2.2.2 finds these pairs by MPR, which
 // measures the depth along the ray between the two centres: an ellipsoid resting 5e-8 m deep on
 // a box face came out 3.7 mm deep with its normal 10 degrees off (the Allegro hand's object on
 // its palm, compare/results/convex_distance.md), a sphere pressed on an ellipsoid (the Shadow
@@ -13,11 +14,6 @@
 //   closest y_i = a_i^2 p_i / (t + a_i^2),   sum_i (a_i p_i / (t + a_i^2))^2 = 1,
 // one root in t > -min a_i^2 (outside: t > 0; inside: t < 0), by bisection-safeguarded Newton,
 // ending with two Newton steps so that a dual build carries the root's derivatives.
-// Sphere (centre c, radius r):  dist = sd(c) - r, sd the point's signed distance to the ellipsoid.
-// Capsule (segment c + t a, |t| <= hl, radius r): dist = min over t of sd(c + t a) - r; sd is
-// convex, so its slope n(t).a (n the outward normal at the closest point) rises with t: the
-// minimum by bisection on the slope, then one Newton step on it (the slope's derivative by a
-// difference), which gives t's derivatives in a dual build.
 // Box (half sizes e, in the box frame): the signed distance of two convex shapes is
 //   d = max over unit n of sep(n),   sep(n) = min_ellipsoid(n.x) - max_box(n.x)
 // (n from the box to the ellipsoid; negative d: minus the penetration depth). max_box(n.x) =
@@ -38,8 +34,8 @@
 // and vertex values, so the contact is continuous across features. A configuration where no
 // feature holds (only deep penetrations, beyond round-off) falls back to MPR as MuJoCo collides
 // it (osti_collideConvex).
-// Invariant: at most one contact per pair, dist < margin, normal from geom1 (the lower type: a
-// sphere or capsule to the ellipsoid, the ellipsoid to the box), frame completed as MuJoCo's
+// Invariant: at most one contact per pair, dist < margin, normal from geom1 (the lower type:
+// the ellipsoid to the box), frame completed as MuJoCo's
 // driver does (osti_makeFrame, no tangent hint); loops have fixed bounds (host and device,
 // double and dual builds).
 #ifndef OSTRICH_CORE_OST_COLLISION_ELLIPSOID_H_
@@ -259,75 +255,6 @@ OST_HD int osti_ellboxVertex(const ostNum c[3], const ostNum Rr[9], const ostNum
     }
   }
   return 1;
-}
-
-
-// the contact of a ball (centre c, radius r) with ellipsoid g2 at c's closest point: normal from
-// the ball to the ellipsoid; returns the contacts (0 or 1), or -1 if c is at the centre
-OST_HD int osti_ellBall(ostContact* con, const ostNum c[3], ostNum r, const ostGeom* g2,
-                        ostNum margin) {
-  ostNum sd, n[3], x[3];
-  if (!osti_ellPoint(g2, c, &sd, n, x)) {
-    return -1;
-  }
-  ostNum dist = sd - r;
-  if (!(dist < margin)) {
-    return 0;
-  }
-  ostNum pos[3], mn[3] = {-n[0], -n[1], -n[2]};
-  for (int l = 0; l < 3; l++) pos[l] = x[l] + n[l] * (0.5 * dist);  // midway between surfaces
-  osti_primSetContact(con, dist, pos, mn, NULL);
-  return 1;
-}
-
-
-// sphere g1 : ellipsoid g2; tol and maxiter are MPR's (a centre at the ellipsoid's centre)
-OST_HD int osti_collideSphereEllipsoid(ostContact* con, const ostGeom* g1, const ostGeom* g2,
-                                       ostNum margin, ostNum tol, int maxiter) {
-  int n = osti_ellBall(con, g1->pos, g1->size[0], g2, margin);
-  return n >= 0 ? n : osti_collideConvex(con, g1, g2, margin, tol, maxiter);
-}
-
-
-// the slope d sd(c + t a)/dt = n.a of the capsule's axis point at t (0 where undefined)
-OST_HD ostNum osti_ellSlope(const ostGeom* g2, const ostNum c[3], const ostNum a[3], ostNum t) {
-  ostNum p[3] = {c[0] + t * a[0], c[1] + t * a[1], c[2] + t * a[2]}, sd, n[3], x[3];
-  return osti_ellPoint(g2, p, &sd, n, x) ? n[0] * a[0] + n[1] * a[1] + n[2] * a[2] : 0;
-}
-
-
-// capsule g1 : ellipsoid g2 (the axis point nearest the ellipsoid as a ball); tol and maxiter
-// are MPR's (an axis through the ellipsoid's centre)
-OST_HD int osti_collideCapsuleEllipsoid(ostContact* con, const ostGeom* g1, const ostGeom* g2,
-                                        ostNum margin, ostNum tol, int maxiter) {
-  ostNum a[3] = {g1->mat[2], g1->mat[5], g1->mat[8]}, hl = g1->size[1];
-  ostNum t;
-  if (osti_ellSlope(g2, g1->pos, a, -hl) >= 0) {
-    t = -hl;  // the distance rises along the whole axis
-  } else if (osti_ellSlope(g2, g1->pos, a, hl) <= 0) {
-    t = hl;
-  } else {
-    ostNum lo = -hl, hi = hl;
-    for (int it = 0; it < 60 && hi - lo > 1e-13 * hl; it++) {
-      ostNum mid = 0.5 * (lo + hi);
-      if (osti_ellSlope(g2, g1->pos, a, mid) < 0) {
-        lo = mid;
-      } else {
-        hi = mid;
-      }
-    }
-    t = 0.5 * (lo + hi);
-    // one Newton step on the slope: t's value stays, its derivatives become the root's
-    ostNum dt = 1e-6 * hl, s0 = osti_ellSlope(g2, g1->pos, a, t);
-    ostNum s2 = (osti_ellSlope(g2, g1->pos, a, t + dt) - osti_ellSlope(g2, g1->pos, a, t - dt))
-                / (2 * dt);
-    if (s2 > 0) {
-      t = t - s0 / s2;
-    }
-  }
-  ostNum c[3] = {g1->pos[0] + t * a[0], g1->pos[1] + t * a[1], g1->pos[2] + t * a[2]};
-  int n = osti_ellBall(con, c, g1->size[0], g2, margin);
-  return n >= 0 ? n : osti_collideConvex(con, g1, g2, margin, tol, maxiter);
 }
 
 

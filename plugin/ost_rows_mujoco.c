@@ -333,21 +333,13 @@ int ost_collideCorePair(const mjModel* m, const mjData* d, const ostNum* hfield_
                                     m->opt.mpr_iterations);
   }
   if ((a.type == mjGEOM_SPHERE || a.type == mjGEOM_CAPSULE)
-      && (b.type == mjGEOM_CYLINDER || b.type == mjGEOM_MESH)) {
+      && (b.type == mjGEOM_ELLIPSOID || b.type == mjGEOM_CYLINDER || b.type == mjGEOM_MESH)) {
     if (b.type == mjGEOM_MESH) {
       int id = m->geom_dataid[g2];
       b.nvert = meshSupportCount(m, id);
       b.vert = mesh_vert + 3 * (size_t)m->mesh_vertadr[id];
     }
-    return osti_collideBallConvex(con, &a, &b, margin, m->opt.mpr_tolerance,
-                                  m->opt.mpr_iterations);
-  }
-  if (b.type == mjGEOM_ELLIPSOID) {
-    return a.type == mjGEOM_SPHERE
-           ? osti_collideSphereEllipsoid(con, &a, &b, margin, m->opt.mpr_tolerance,
-                                         m->opt.mpr_iterations)
-           : osti_collideCapsuleEllipsoid(con, &a, &b, margin, m->opt.mpr_tolerance,
-                                          m->opt.mpr_iterations);
+    return osti_collideBall(con, &a, &b, margin, m->opt.mpr_tolerance, m->opt.mpr_iterations);
   }
   return osti_collideCylinderBox(con, &a, &b, margin);
 }

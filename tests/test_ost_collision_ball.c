@@ -1,9 +1,11 @@
-// test_ost_collision_ball.c: spheres and capsules against cylinders and convex meshes by GJK on
-// their cores (core/ost_collision_ball.h), against (a) closed forms: a sphere about a cube mesh
-// (|c - clamp(c)| - r) and about a cylinder (the point-cylinder distance minus r); (b) GJK on
-// the whole capsule where apart; (c) a capsule lying along a face: held at both ends; (d) the
-// first-order property a Newton iteration on the gap needs: under rigid motions of either geom
-// the distance changes by n.(dx_2 - dx_1) at the witnesses.
+// test_ost_collision_ball.c: spheres and capsules against cylinders (closed forms) and convex
+// meshes (GJK on their cores) (core/ost_collision_ball.h), against (a) closed forms: a sphere
+// about a cube mesh (|c - clamp(c)| - r) and about or inside a turned cylinder (the
+// point-cylinder distance by feature minus r, and its normal); (b) GJK on the whole capsule
+// where apart from a mesh, an independent minimization along the axis for a cylinder; (c) a
+// capsule lying along a face: held at both ends; (d) the first-order property a Newton
+// iteration on the gap needs: under rigid motions of either geom the distance changes by
+// n.(dx_2 - dx_1) at the witnesses.
 #define _GNU_SOURCE  // drand48
 #include "ost_collision_ball.h"
 
@@ -34,7 +36,7 @@ static void cube(ostGeom* g, double e, double vert[24]) {
 // the deepest (least dist) contact of ball g1 : g2; *n gets the count
 static ostContact deepest(const ostGeom* g1, const ostGeom* g2, int* n) {
   ostContact con[OST_MAXCONPAIR];
-  *n = osti_collideBallConvex(con, g1, g2, BIG_MARGIN, 1e-6, 50);
+  *n = osti_collideBall(con, g1, g2, BIG_MARGIN, 1e-6, 50);
   ck_assert_int_ge(*n, 1);
   int best = 0;
   for (int i = 1; i < *n; i++) best = con[i].dist < con[best].dist ? i : best;
@@ -42,9 +44,18 @@ static ostContact deepest(const ostGeom* g1, const ostGeom* g2, int* n) {
 }
 
 
+// the signed distance of capsule g's axis point at t to cylinder c (osti_cylPoint)
+static double cylAxisDistance(const ostGeom* g, const ostGeom* c, double t) {
+  double p[3], sd, n[3], x[3];
+  for (int k = 0; k < 3; k++) p[k] = g->pos[k] + t * g->mat[3 * k + 2];
+  ck_assert_int_eq(osti_cylPoint(c, p, &sd, n, x), 1);
+  return sd;
+}
+
+
 START_TEST(test_ball_closed_forms) {
   srand48(21);
-  double worst_mesh = 0, worst_cyl = 0, worst_gjk = 0;
+  double worst_mesh = 0, worst_cyl = 0, worst_gjk = 0, worst_capcyl = 0;
   int ncase = 0;
   for (int rep = 0; rep < 6000; rep++) {
     double vert[24];
@@ -67,25 +78,64 @@ START_TEST(test_ball_closed_forms) {
                     con.dist, D - r);
       ncase++;
     }
-    // a sphere about a cylinder (radius R, half length hl), in the cylinder's frame
-    double R = ost_fixtureUniform(0.01, 0.05), hl = ost_fixtureUniform(0.01, 0.05);
+    // a sphere about (or inside) a turned cylinder (radius R, half length hl): the distance by
+    // feature (side, cap, rim) in the cylinder's frame, and its normal, to round-off (GJK's
+    // witness on the curved side or rim converges linearly: its normal was off by ~1e-7 rad)
+    double R = ost_fixtureUniform(0.01, 0.05), hl = ost_fixtureUniform(0.01, 0.05), loc[3];
     ost_fixtureGeom(&c, OST_GEOM_CYLINDER, R, hl, 0);
-    for (int k = 0; k < 3; k++) s.pos[k] = ost_fixtureUniform(-2.5, 2.5) * (k < 2 ? R : hl);
-    double rho = hypot(s.pos[0], s.pos[1]), z = fabs(s.pos[2]), Dc;
-    if (z <= hl) {
-      Dc = rho - R;
-    } else if (rho <= R) {
-      Dc = z - hl;
-    } else {
-      Dc = hypot(rho - R, z - hl);
+    ost_fixtureRandMat(c.mat);
+    for (int k = 0; k < 3; k++) {
+      c.pos[k] = ost_fixtureUniform(-0.1, 0.1);
+      loc[k] = ost_fixtureUniform(-2.5, 2.5) * (k < 2 ? R : hl);
     }
-    if (Dc > 1e-2 * r) {
+    double rho = hypot(loc[0], loc[1]), z = fabs(loc[2]), sz = loc[2] < 0 ? -1 : 1, Dc;
+    double nl[3] = {loc[0] / rho, loc[1] / rho, 0};  // the side's
+    if (rho > R && z > hl) {
+      Dc = hypot(rho - R, z - hl);
+      for (int k = 0; k < 2; k++) nl[k] *= (rho - R) / Dc;
+      nl[2] = sz * (z - hl) / Dc;
+    } else if (rho > R || (z <= hl && rho - R > z - hl)) {
+      Dc = rho - R;
+    } else {
+      Dc = z - hl;
+      nl[0] = nl[1] = 0;
+      nl[2] = sz;
+    }
+    mju_mulMatVec(s.pos, c.mat, loc, 3, 3);
+    for (int k = 0; k < 3; k++) s.pos[k] += c.pos[k];
+    {
       int n;
       ostContact con = deepest(&s, &c, &n);
-      worst_cyl = fmax(worst_cyl, fabs(con.dist - (Dc - r)));
-      // GJK on a curved side converges to its tolerance (1e-10 of the size)
-      ck_assert_msg(fabs(con.dist - (Dc - r)) < 1e-9, "sphere-cylinder rep %d: %.15g vs %.15g",
-                    rep, con.dist, Dc - r);
+      double nw[3], err = fabs(con.dist - (Dc - r));
+      mju_mulMatVec(nw, c.mat, nl, 3, 3);
+      for (int k = 0; k < 3; k++) err = fmax(err, fabs(con.frame[k] + nw[k]) * R);
+      worst_cyl = fmax(worst_cyl, err);
+      ck_assert_msg(err < 1e-15, "sphere-cylinder rep %d: %.17g vs %.17g, normal %g %g %g",
+                    rep, con.dist, Dc - r, con.frame[0], con.frame[1], con.frame[2]);
+    }
+    // a capsule about the cylinder: the least distance of its axis points, against an
+    // independent minimization (a ternary search of the point distance along the axis; the
+    // distance is convex along a line)
+    ostGeom cc;
+    ost_fixtureGeom(&cc, OST_GEOM_CAPSULE, r, ost_fixtureUniform(0.005, 0.06), 0);
+    ost_fixtureRandMat(cc.mat);
+    for (int k = 0; k < 3; k++) cc.pos[k] = c.pos[k] + ost_fixtureUniform(-2, 2) * (R + hl);
+    double lo = -cc.size[1], hi = cc.size[1];
+    for (int it = 0; it < 200; it++) {
+      double t1 = lo + (hi - lo) / 3, t2 = hi - (hi - lo) / 3;
+      if (cylAxisDistance(&cc, &c, t1) <= cylAxisDistance(&cc, &c, t2)) {
+        hi = t2;
+      } else {
+        lo = t1;
+      }
+    }
+    double oracle = cylAxisDistance(&cc, &c, 0.5 * (lo + hi)) - r;
+    if (oracle > -0.9 * fmin(R, hl)) {  // (deeper, the point distance's undefined axis)
+      int n;
+      ostContact con = deepest(&cc, &c, &n);
+      worst_capcyl = fmax(worst_capcyl, fabs(con.dist - oracle));
+      ck_assert_msg(fabs(con.dist - oracle) < 1e-14, "capsule-cylinder rep %d: %.17g vs %.17g",
+                    rep, con.dist, oracle);
     }
     // a capsule about a turned cube mesh, apart: GJK on the whole capsule
     ostGeom cap;
@@ -103,8 +153,9 @@ START_TEST(test_ball_closed_forms) {
     }
   }
   ck_assert_int_ge(ncase, 3000);
-  printf("sphere about a cube mesh: %.3g m; about a cylinder: %.3g m; capsule about a cube, "
-         "against GJK: %.3g m\n", worst_mesh, worst_cyl, worst_gjk);
+  printf("sphere about a cube mesh: %.3g m; about a cylinder (distance and normal x R): %.3g m; "
+         "capsule about a cube, against GJK: %.3g m; about a cylinder: %.3g m\n", worst_mesh,
+         worst_cyl, worst_gjk, worst_capcyl);
 }
 END_TEST
 
@@ -128,7 +179,7 @@ START_TEST(test_ball_capsule_lying) {
   cap.pos[0] = 0.01;
   cap.pos[2] = 0.1 + 0.01 + 1e-3;
   ostContact con[OST_MAXCONPAIR];
-  int n = osti_collideBallConvex(con, &cap, &m, 0.01, 1e-6, 50);
+  int n = osti_collideBall(con, &cap, &m, 0.01, 1e-6, 50);
   ck_assert_int_ge(n, 2);
   for (int e = -1; e <= 1; e += 2) {
     double end = cap.pos[2] + e * 0.04 * ax[2] - 0.01 - 0.1, found = 0;
@@ -183,8 +234,10 @@ START_TEST(test_ball_first_order) {
     }
     double err = fabs((cp.dist - cm.dist) / (2 * eps) - pred) / scale;
     worst = fmax(worst, err);
-    // GJK's tolerance on a curved side (1e-10 of the size) over eps bounds the differences
-    ck_assert_msg(err < 1e-4, "rep %d: rate %.12g, n.(dx_2 - dx_1) %.12g", rep,
+    // both shapes' distances are exact to round-off (closed forms; GJK ends exactly on a
+    // polytope): the central difference's truncation, eps^2 over the curvatures' radii
+    // (>= 1e-3 m here), and round-off over eps (1e-16 / 1e-6) bound it far below 1e-6
+    ck_assert_msg(err < 1e-6, "rep %d: rate %.12g, n.(dx_2 - dx_1) %.12g", rep,
                   (cp.dist - cm.dist) / (2 * eps), pred);
     ncase++;
   }
@@ -224,7 +277,7 @@ START_TEST(test_ball_extremes) {
     double reach = rep % 7 == 0 ? 0 : ost_fixtureUniform(0, 3) * s0;
     for (int k = 0; k < 3; k++) b.pos[k] = reach * ost_fixtureUniform(-1, 1);
     ostContact con[OST_MAXCONPAIR];
-    int n = osti_collideBallConvex(con, &b, &g, 1e3 * s0, 1e-6, 50);
+    int n = osti_collideBall(con, &b, &g, 1e3 * s0, 1e-6, 50);
     for (int i = 0; i < n; i++) {
       ck_assert_msg(ost_fixtureContactValid(con + i), "rep %d: dist %g", rep, con[i].dist);
     }

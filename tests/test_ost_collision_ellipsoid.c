@@ -11,6 +11,7 @@
 // (d) the property a Newton iteration on the gap needs, by central differences: under a rigid
 //     motion of either geom the distance changes by n.(dx_box - dx_ellipsoid) at the witnesses.
 #define _GNU_SOURCE  // drand48
+#include "ost_collision_ball.h"
 #include "ost_collision_ellipsoid.h"
 
 #include <check.h>
@@ -320,9 +321,7 @@ END_TEST
 // the contact of a sphere or capsule g1 with ellipsoid e (exactly one)
 static ostContact ballContact(const ostGeom* g1, const ostGeom* e) {
   ostContact con;
-  int n = g1->type == OST_GEOM_SPHERE
-          ? osti_collideSphereEllipsoid(&con, g1, e, BIG_MARGIN, 1e-6, 50)
-          : osti_collideCapsuleEllipsoid(&con, g1, e, BIG_MARGIN, 1e-6, 50);
+  int n = osti_collideBall(&con, g1, e, BIG_MARGIN, 1e-6, 50);
   ck_assert_int_eq(n, 1);
   return con;
 }
@@ -426,9 +425,8 @@ START_TEST(test_ellipsoid_extremes) {
     double reach = rep % 7 == 0 ? 0 : ost_fixtureUniform(0, 3) * s0;
     for (int k = 0; k < 3; k++) a.pos[k] = reach * ost_fixtureUniform(-1, 1);
     ostContact con[OST_MAXCONPAIR];
-    int n = type == 0   ? osti_collideSphereEllipsoid(con, &a, &e, 1e3 * s0, 1e-6, 50)
-            : type == 1 ? osti_collideCapsuleEllipsoid(con, &a, &e, 1e3 * s0, 1e-6, 50)
-                        : osti_collideEllipsoidBox(con, &e, &a, 1e3 * s0, 1e-6, 50);
+    int n = type < 2 ? osti_collideBall(con, &a, &e, 1e3 * s0, 1e-6, 50)
+                     : osti_collideEllipsoidBox(con, &e, &a, 1e3 * s0, 1e-6, 50);
     for (int i = 0; i < n; i++) {
       ck_assert_msg(ost_fixtureContactValid(con + i), "rep %d (type %d): dist %g", rep, type,
                     con[i].dist);
