@@ -402,8 +402,8 @@ END_TEST
 
 
 // the backward pass records at most 2 S + 8 substeps per segment of S steps: with split_tol 0
-// every step splits to split_depth 3 (8 substeps); segments of one step hold them and give the
-// tape's gradients, segments of two steps (16 > 12) overflow and say so (NaN gradients,
+// every step splits to split_depth (3 here: 8 substeps); segments of one step hold them and
+// give the tape's gradients, segments of two steps (16 > 12) overflow and say so (NaN gradients,
 // OST_OVERFLOW), and the forward rollout is the same either way
 START_TEST(test_batchBackwardRecordCapacity) {
   ost_fixtureSetup();
@@ -418,7 +418,8 @@ START_TEST(test_batchBackwardRecordCapacity) {
   ck_assert_int_eq((long)fread(xml, 1, n, f), n);
   fclose(f);
   char* at = strstr(xml, "<custom>") + strlen("<custom>");
-  const char* add = "<numeric name=\"ostrich/split_tol\" data=\"0\"/>";
+  const char* add = "<numeric name=\"ostrich/split_tol\" data=\"0\"/>"
+                    "<numeric name=\"ostrich/split_depth\" data=\"3\"/>";
   memmove(at + strlen(add), at, strlen(at) + 1);
   memcpy(at, add, strlen(add));
   at = strstr(xml, "file=\"") + strlen("file=\"");  // the include, from the fixture's /tmp
