@@ -13,7 +13,7 @@
   X(k_min,         1, 1)                    \
   X(linesearch,    1, 1)                    \
   X(warmstart,     1, 1)                    \
-  X(split_depth,   1, 6)                    \
+  X(split_depth,   1, 3)                    \
   X(split_tol,     0, 1e-10)                \
   X(tol,           0, 1e-10)                \
   X(pcr_tol,       0, 1e-12)                \
