@@ -55,16 +55,21 @@ void ost_paramFrictionMap(const mjModel* m, const ostModel* native, int* geom, m
 
 
 int ost_paramDifferentiable(const mjModel* m, int i) {
-  // MuJoCo reads biasprm only for an affine bias (a motor's is unused) and gainprm[0] as a gain
-  // only when fixed: no derivative elsewhere (a muscle's are its curves' range, not
-  // differentiated: core/README.md section 1)
+  // MuJoCo reads gainprm[0] as a gain only when fixed and biasprm[1], [2] as feedback only for
+  // an affine bias. A motor's biasprm is not read at all: derivative 0. A muscle's gainprm[0]
+  // (the lower end of its operating range) and biasprm[1], [2] (the upper end, its peak force)
+  // shape its curves, which the adjoint does not differentiate (core/README.md section 1):
+  // unknown, NaN. (Affine and user gains and user biases are refused.)
   int nu = m->nu, gain0 = ost_paramAddress(m, OST_PARAM_GAIN);
   int bias1 = ost_paramAddress(m, OST_PARAM_BIASPOS), bias2 = ost_paramAddress(m, OST_PARAM_BIASVEL);
   int act = i >= bias2 ? i - bias2 : i - bias1;
   if (i >= bias1 && act < nu && m->actuator_biastype[act] != mjBIAS_AFFINE) {
-    return 0;
+    return m->actuator_biastype[act] == mjBIAS_MUSCLE ? -1 : 0;
   }
-  return !(i >= gain0 && i < gain0 + nu && m->actuator_gaintype[i - gain0] != mjGAIN_FIXED);
+  if (i >= gain0 && i < gain0 + nu && m->actuator_gaintype[i - gain0] != mjGAIN_FIXED) {
+    return m->actuator_gaintype[i - gain0] == mjGAIN_MUSCLE ? -1 : 0;
+  }
+  return 1;
 }
 
 
@@ -308,8 +313,11 @@ static int recordBackward(ostContext* c, const mjModel* m, const ostRecord* r,
     gctrl[i] += gxi[nx + i];
   }
   for (int i = 0; i < nparam; i++) {
-    if (ost_paramDifferentiable(m, i)) {
+    int diff = ost_paramDifferentiable(m, i);
+    if (diff > 0) {
       gtheta[i] += gxi[nx + nu + i];
+    } else if (diff < 0) {
+      gtheta[i] = NAN;  // read by MuJoCo, not differentiated here: unknown
     }
   }
   return OST_OK;

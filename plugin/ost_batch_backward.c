@@ -61,14 +61,14 @@ int ost_batchParamsPrepare(ostBatch* b, const mjModel* m) {
     b->param_adr[g] = ost_paramAddress(m, g);
   }
   int npair = b->model.s.npair > 0 ? b->model.s.npair : 1;
-  b->param_diff = (unsigned char*)malloc(b->nparam > 0 ? b->nparam : 1);
+  b->param_diff = (signed char*)malloc(b->nparam > 0 ? b->nparam : 1);
   b->fric_geom = (int*)malloc(2 * npair * sizeof(int));
   b->fric_weight = (mjtNum*)malloc(2 * npair * sizeof(mjtNum));
   if (!b->param_diff || !b->fric_geom || !b->fric_weight) {
     return OST_ERR_MEMORY;
   }
   for (int i = 0; i < b->nparam; i++) {
-    b->param_diff[i] = (unsigned char)ost_paramDifferentiable(m, i);
+    b->param_diff[i] = (signed char)ost_paramDifferentiable(m, i);
   }
   ost_paramFrictionMap(m, &b->model, b->fric_geom, b->fric_weight);
   return OST_OK;
@@ -250,11 +250,15 @@ int ost_batchBackwardParams(ostBatch* b, const ostGradOptions* go, int checkpoin
                       nparam ? gtheta : NULL, gq0, gu0, NULL};
     ost_batchRunChunks(b, backChunkRun, proto);
   }
-  // entries MuJoCo does not read as parameters have no derivative (ost_paramDifferentiable);
+  // entries MuJoCo does not read as parameters have no derivative, those it reads but the
+  // adjoint does not differentiate (a muscle's curves) are unknown (ost_paramDifferentiable);
   // a failed world's NaN stays
   for (int i = 0; !status && i < nw * nparam; i++) {
-    if (!b->param_diff[i % nparam] && !isnan(gtheta[i])) {
+    int diff = b->param_diff[i % nparam];
+    if (diff == 0 && !isnan(gtheta[i])) {
       gtheta[i] = 0;
+    } else if (diff < 0) {
+      gtheta[i] = NAN;
     }
   }
   return status;

@@ -67,7 +67,8 @@ struct ostBatch_ {
   int             adj_pool_n;     // their count
   int             nparam;         // entries of theta (ost_nparam)
   int             param_adr[OST_PARAM_ADR]; // its groups' offsets (ost_paramAddress)
-  unsigned char*  param_diff;     // 1 where theta has a derivative (ost_paramDifferentiable)
+  signed char*    param_diff;     // per theta entry: 1 differentiated, 0 not read, -1 not
+                                  // differentiated (ost_paramDifferentiable)
   int*            fric_geom;      // the friction map (ost_paramFrictionMap): geoms, then
   mjtNum*         fric_weight;    // weights, 2 per candidate pair (host)
   char*           fric_dev;       // cuda: both on the device (geoms, then weights at an

@@ -342,8 +342,9 @@ int ost_recordsBackward(ostContext* c, const mjModel* m, void* recs, size_t nbyt
 // weights (MuJoCo's mixing: the higher priority's, else the larger; 1/2 each at a tie)
 void ost_paramFrictionMap(const mjModel* m, const ostModel* native, int* geom, mjtNum* weight);
 
-// 1 if theta entry i has a derivative: 0 for the bias parameters of an actuator whose bias is
-// not affine and the gain of one whose gain is not fixed (MuJoCo does not read them as such)
+// whether theta entry i has a derivative: 1 yes; 0 none (the bias parameters of an actuator
+// whose bias is neither affine nor a muscle's, which MuJoCo does not read); -1 unknown (a
+// muscle's gainprm[0] and biasprm[1], [2]: they shape its curves, not differentiated)
 int ost_paramDifferentiable(const mjModel* m, int i);
 
 // the adjoint's resources of a context (called when the context is freed)

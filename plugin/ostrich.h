@@ -342,6 +342,9 @@ typedef enum ostParam_ {
   OST_PARAM_GAIN,                 // actuator_gainprm[i][0]: kp or kv (fixed gain only) (nu)
   OST_PARAM_BIASPOS,              // actuator_biasprm[i][1] (= -kp of a position servo) (nu)
   OST_PARAM_BIASVEL,              // actuator_biasprm[i][2] (= -kv of a servo)       (nu)
+  // (a gain or bias entry MuJoCo does not read, as a motor's biasprm, has gradient 0; a
+  // muscle's gainprm[0], biasprm[1] and [2], which shape its curves and are not
+  // differentiated, get NaN)
   OST_NPARAM                      // number of groups
 } ostParam;
 

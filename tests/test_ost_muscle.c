@@ -315,6 +315,63 @@ START_TEST(test_transitionGradients) {
 END_TEST
 
 
+// the parameter gradients of a rollout with a muscle beside fixed-gain actuators
+// (tests/models/activation_pusher.xml): a muscle's gainprm[0] and biasprm[1], [2] shape its
+// curves, which the adjoint does not differentiate, so they come back NaN (its gainprm[0] moves
+// the loss: MuJoCo reads it as the lower end of the operating range), on a tape and in a batch;
+// the motor's unread biasprm has gradient 0; the fixed gains and the servo's affine bias are
+// finite
+START_TEST(test_muscleParamsUnknown) {
+  ost_fixtureSetup();
+  mjModel* m = ost_fixtureLoadModel("../tests/models/activation_pusher.xml");
+  int nv = m->nv, nu = m->nu, np = ost_nparam(m), T = 20;
+  int gain = ost_paramAddress(m, OST_PARAM_GAIN), bpos = ost_paramAddress(m, OST_PARAM_BIASPOS);
+  int bvel = ost_paramAddress(m, OST_PARAM_BIASVEL), mus = 3, motor = 0, servo = 1;
+  ck_assert_int_eq(m->actuator_gaintype[mus], mjGAIN_MUSCLE);
+  mjtNum *gq = calloc((T + 1) * nv, 8), *gt = calloc(np, 8), *gc = calloc(T * nu, 8);
+  mjtNum* ctrl = calloc(T * nu, 8);
+  for (int t = 0; t < T; t++) {
+    for (int a = 0; a < nu; a++) ctrl[t * nu + a] = 0.5;
+  }
+  for (int i = 0; i < (T + 1) * nv; i++) gq[i] = sin(0.7 * i);
+  ostGradOptions go;
+  ost_defaultGradOptions(&go);
+  go.params = 1;
+  go.forward_only = 1;
+  mjData* d = mj_makeData(m);
+  ostTape* tape = ost_tapeCreate(m, 0);
+  for (int t = 0; t < T; t++) {
+    memcpy(d->ctrl, ctrl + t * nu, nu * sizeof(mjtNum));
+    ck_assert_int_eq(ost_tapeStep(tape, m, d), OST_OK);
+  }
+  ck_assert_int_eq(ost_tapeBackward(tape, m, &go, gq, NULL, gc, NULL, NULL, gt), OST_OK);
+  char err[1000];
+  ostBatch* b = ost_batchCreate(m, 1, "cpu:1", err, sizeof(err));
+  ck_assert_msg(b != NULL, "%s", err);
+  mjtNum* gb = calloc(np, 8);
+  ck_assert_int_eq(ost_batchSetState(b, NULL, NULL), OST_OK);
+  ck_assert_int_eq(ost_batchRollout(b, T, ctrl, NULL, NULL), OST_OK);
+  ck_assert_int_eq(ost_batchBackwardParams(b, &go, 0, gq, NULL, NULL, NULL, NULL, gb), OST_OK);
+  for (int k = 0; k < 2; k++) {
+    const mjtNum* g = k ? gb : gt;
+    printf("%s: muscle gain %g, bias %g %g; motor gain %g, bias %g; servo bias %g\n",
+           k ? "batch" : "tape", g[gain + mus], g[bpos + mus], g[bvel + mus], g[gain + motor],
+           g[bpos + motor], g[bpos + servo]);
+    ck_assert(isnan(g[gain + mus]) && isnan(g[bpos + mus]) && isnan(g[bvel + mus]));
+    ck_assert(isfinite(g[gain + motor]) && g[gain + motor] != 0);
+    ck_assert(isfinite(g[bpos + servo]) && g[bpos + servo] != 0);
+    ck_assert_double_eq(g[bpos + motor], 0);
+    for (int i = 0; i < gain; i++) ck_assert(isfinite(g[i]));  // friction, mass, damping
+  }
+  ost_batchDelete(b);
+  ost_tapeDelete(tape);
+  ost_deleteData(d);
+  free(gq); free(gt); free(gc); free(ctrl); free(gb);
+  mj_deleteModel(m);
+}
+END_TEST
+
+
 static Suite* suite(void) {
   Suite* s = suite_create("ost_muscle");
   TCase* tc = tcase_create("muscle");
@@ -324,6 +381,7 @@ static Suite* suite(void) {
   tcase_add_test(tc, test_hingeSteadyState);
   tcase_add_test(tc, test_arm26);
   tcase_add_test(tc, test_transitionGradients);
+  tcase_add_test(tc, test_muscleParamsUnknown);
   suite_add_tcase(s, tc);
   return s;
 }

@@ -113,7 +113,8 @@ static void gradcheck_usage(FILE* f) {
     "tiny), tiny = 1e-6 * the largest |g_fd| of all compared groups (a group a million times\n"
     "smaller than the gradient is zero to within finite differences). Prints one JSON line:\n"
     "model, steps, h, seed, eps, tol, loss, the error of each group (null if not compared),\n"
-    "n_qpos, n_qvel, n_ctrl, n_params, params_nonzero, params_one_sided, param_groups (the\n"
+    "n_qpos, n_qvel, n_ctrl, n_params, params_nonzero, params_one_sided, params_unknown (the\n"
+    "parameters whose adjoint is NaN, not differentiated: a muscle's curves), param_groups (the\n"
     "error of each theta group against its own scale), adjoint_s, fd_s, ok.\n"
     "\n"
     "Finite differences are only meaningful where the rollout is smooth: a contact that\n"
@@ -577,10 +578,17 @@ static int gradcheck_fd(gradcheckProblem* p, const int wrt[GC_NGROUP], double ep
 //---------------------------------- Report --------------------------------------------------------
 
 // Normwise relative error of entries [lo, hi): max |adj - fd| / max(max |fd|, tiny); NaN if
-// any entry is not finite.
-static double gradcheck_error(const gradcheckProblem* p, int lo, int hi, double tiny) {
+// any entry is not finite. With unknown (parameters only): an entry whose adjoint is NaN, a
+// parameter the adjoint does not differentiate (ostParam: a muscle's curves), is left out and
+// counted there.
+static double gradcheck_error(const gradcheckProblem* p, int lo, int hi, double tiny,
+                              int* unknown) {
   double diff = 0, scale = tiny;
   for (int c = lo; c < hi; c++) {
+    if (unknown && isnan(p->g_adj[c])) {
+      (*unknown)++;
+      continue;
+    }
     if (!isfinite(p->g_adj[c]) || !isfinite(p->g_fd[c])) {
       return NAN;
     }
@@ -653,9 +661,11 @@ static int gradcheck_report(const gradcheckArgs* a, const gradcheckProblem* p, i
   cli_jsonString(stdout, a->wrt);
   printf(",\"eps\":%g,\"tol\":%g,\"loss\":", a->eps, a->tol);
   cli_jsonNumber(stdout, loss);
-  int ok = !failed;
+  int ok = !failed, unknown = 0;
   for (int g = 0; g < GC_NGROUP; g++) {
-    double e = wrt[g] ? gradcheck_error(p, p->adr[g], p->adr[g + 1], tiny) : NAN;
+    double e = wrt[g] ? gradcheck_error(p, p->adr[g], p->adr[g + 1], tiny,
+                                        g == GC_PARAMS ? &unknown : NULL)
+                      : NAN;
     printf(",\"%s\":", kGroupNames[g]);
     if (wrt[g] && !failed) {
       cli_jsonNumber(stdout, e);
@@ -670,16 +680,17 @@ static int gradcheck_report(const gradcheckArgs* a, const gradcheckProblem* p, i
   printf(",\"n_qpos\":%d,\"n_qvel\":%d,\"n_ctrl\":%d,\"n_params\":%d,\"params_nonzero\":",
          p->m->nv, p->m->nv, p->n * p->m->nu, p->nparam);
   if (wrt[GC_PARAMS] && !failed) {
-    printf("%d,\"params_one_sided\":%d,\"param_groups\":{", nonzero, one_sided);
+    printf("%d,\"params_one_sided\":%d,\"params_unknown\":%d,\"param_groups\":{", nonzero,
+           one_sided, unknown);
     for (int g = 0; g < OST_NPARAM; g++) {
       int lo = p->adr[GC_PARAMS] + ost_paramAddress(p->m, g);
-      int hi = p->adr[GC_PARAMS] + ost_paramAddress(p->m, g + 1);
+      int hi = p->adr[GC_PARAMS] + ost_paramAddress(p->m, g + 1), skipped = 0;
       printf("%s\"%s\":", g ? "," : "", kParamNames[g]);
-      cli_jsonNumber(stdout, hi > lo ? gradcheck_error(p, lo, hi, tiny) : 0);
+      cli_jsonNumber(stdout, hi > lo ? gradcheck_error(p, lo, hi, tiny, &skipped) : 0);
     }
     printf("}");
   } else {
-    printf("null,\"params_one_sided\":null,\"param_groups\":null");
+    printf("null,\"params_one_sided\":null,\"params_unknown\":null,\"param_groups\":null");
   }
   printf(",\"adjoint_s\":%.6f,\"fd_s\":%.6f,\"ok\":%s}\n", t_adj, t_fd, ok ? "true" : "false");
   fflush(stdout);
