@@ -249,7 +249,8 @@ END_TEST
 
 // every contact is finite with a unit normal whatever the shapes: sizes from 0.1 mm to 100 m,
 // random hexahedral meshes and cylinders, capsules from points to long rods, axes that pass
-// through the other shape's centre (where the core touches and MPR takes over)
+// through the other shape's centre (where the core touches a mesh, or sits on a cylinder's
+// axis deep inside it, and MPR takes over)
 START_TEST(test_ball_extremes) {
   srand48(78);
   const double sizes[4] = {1e-4, 1e-2, 1, 100};
