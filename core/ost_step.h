@@ -491,11 +491,17 @@ OST_HD int osti_newton(ostWorld* w, const ostSolverOptions* so, int linesearch, 
 
 // deepest step splitting osti_stepNative supports (ostOptions.split_depth is at most 10)
 #define OST_SPLIT_MAX 10
+// levels of splitting a step takes freely: below it each split spends one of the step's
+// deep_splits. An impact onto a sharp feature needs one failed substep per level (a chain, a few
+// splits), a stall or an unsolvable start fails at every level (2^depth loops): the budget lets
+// the first go deep and bounds the second
+#define OST_SPLIT_FREE 3
 
 typedef struct ostStepSettings_ { // what a native step needs besides the model and state
   ostSolverOptions so;            // Newton and PCR settings
   int    linesearch;              // halvings of the line search
   int    split_depth;             // deepest splitting of a step whose merit stays above split_tol
+  int    deep_splits;             // splits of substeps at depth OST_SPLIT_FREE or deeper, per step
   int    warmstart;               // 1: multipliers start from the last step's result
   int    cold_retry;              // 1: a loop that failed from a warm start is redone once cold
   ostNum h;                       // step (s)
@@ -619,7 +625,8 @@ typedef struct ostStepDriver_ {   // the caller's part of a step (osti_stepDrive
 // and set->warmstart), then either a split or the commit (qvel = u+, qacc_warm = (u+ - u-) / h,
 // the world's warm rows, *warm = 1). Splitting: a substep whose best merit stays above split_tol
 // is redone from its start as two half steps, up to split_depth levels, depth first (a stack of
-// depths; both halves of a split have the same depth). Cold retry (set->cold_retry): a loop that
+// depths; both halves of a split have the same depth); below depth OST_SPLIT_FREE a step splits at
+// most deep_splits substeps, the later ones are committed as at the deepest level. Cold retry (set->cold_retry): a loop that
 // failed from a warm start (u- + h qacc_warm != u-, or carried multipliers) is first redone once
 // at the same h from u- with no carried multipliers. Geometric retry (w->geo->retry_on, option
 // geometric_retry; host only): a loop that failed while still improving, not redone cold or
@@ -646,6 +653,7 @@ OST_HD int osti_stepDriven(ostWorld* w, int nq, ostNum* qpos, ostNum* qpos_prev,
   int retry_failed = 0;   // 1 once a cold retry of this step failed
   int geo_failed = 0;     // 1 once a geometric retry of this step failed
   int geo_retry = 0;      // 1: the world can retry with the geometric terms (ost_geometric.h)
+  int deep_left = set->deep_splits;  // splits left at depth OST_SPLIT_FREE or deeper
 #if OST_GEO_HOST
   geo_retry = w->geo && w->geo->retry_on;
 #endif
@@ -725,15 +733,16 @@ OST_HD int osti_stepDriven(ostWorld* w, int nq, ostNum* qpos, ostNum* qpos_prev,
         stack[top++] = 8 * depth + next;
         continue;
       }
-      if (depth < set->split_depth) {
+      if (depth < set->split_depth && (depth < OST_SPLIT_FREE || deep_left > 0)) {
         // redo from this substep's start as two halves
+        deep_left -= depth >= OST_SPLIT_FREE;
         for (int i = 0; i < nq; i++) qpos[i] = qpos_prev[i];
         stack[top++] = 8 * (depth + 1) + OST_LOOP_WARM;
         stack[top++] = 8 * (depth + 1) + OST_LOOP_WARM;
         continue;
       }
       if (sub_kind != loop) {
-        // the deepest level: an earlier loop of this substep did better; run it again (loops
+        // the deepest level (or no deep split left): an earlier loop of this substep did better; run it again (loops
         // are deterministic) and commit it
         for (int i = 0; i < nq; i++) qpos[i] = qpos_prev[i];
         stack[top++] = 8 * depth + (sub_kind | OST_LOOP_AGAIN);

@@ -64,6 +64,7 @@ static int packBatchModel(ostBatch* b, const mjModel* m, char* err, int err_sz) 
   s->so = ost_solverOptions(&o);
   s->linesearch = o.linesearch;
   s->split_depth = o.split_depth < OST_SPLIT_MAX ? o.split_depth : OST_SPLIT_MAX;
+  s->deep_splits = o.deep_splits;
   s->warmstart = o.warmstart;
   s->cold_retry = o.cold_retry;
   s->h = o.timestep > 0 ? o.timestep : m->opt.timestep;

@@ -13,7 +13,8 @@
   X(k_min,         1, 1)                    \
   X(linesearch,    1, 1)                    \
   X(warmstart,     1, 1)                    \
-  X(split_depth,   1, 3)                    \
+  X(split_depth,   1, 6)                    \
+  X(deep_splits,   1, 6)                    \
   X(split_tol,     0, 1e-10)                \
   X(tol,           0, 1e-10)                \
   X(pcr_tol,       0, 1e-12)                \
@@ -47,6 +48,7 @@ static int validate(const ostOptions* o, char* err, int err_sz) {
   else if (o->linesearch < 0 || o->linesearch > 30) bad = "linesearch must be in [0, 30]";
   else if (o->warmstart != 0 && o->warmstart != 1) bad = "warmstart must be 0 or 1";
   else if (o->split_depth < 0 || o->split_depth > 10) bad = "split_depth must be in [0, 10]";
+  else if (o->deep_splits < 0 || o->deep_splits > 1000) bad = "deep_splits must be in [0, 1000]";
   else if (!(o->split_tol >= 0)) bad = "split_tol must be >= 0";
   else if (!(o->tol >= 0)) bad = "tol must be >= 0";
   else if (!(o->pcr_tol >= 0)) bad = "pcr_tol must be >= 0";

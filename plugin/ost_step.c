@@ -674,9 +674,9 @@ static int failBits(int status) {
 // restores the state on a failure.
 static int advance(ostContext* c, mjData* d, mjtNum h, int fresh) {
   const ostOptions* o = &c->opt;
-  ostStepSettings set = {ost_solverOptions(o), o->linesearch, o->split_depth, o->warmstart,
-                         o->cold_retry, h,
-                         o->split_tol, o->margin, o->depenetration_speed};
+  ostStepSettings set = {ost_solverOptions(o), o->linesearch, o->split_depth, o->deep_splits,
+                         o->warmstart, o->cold_retry, h, o->split_tol, o->margin,
+                         o->depenetration_speed};
   stepContext s;  // merit_k and nrow_k are written before they are read (newtonCallback reads
                   // the iterates the loop just wrote): not zeroed, 12 KB per step
   s.c = c;

@@ -110,7 +110,8 @@ typedef struct ostOptions_ {
   double margin;                  // contact look-ahead distance (m) added to margins (0.01)
   double fb_eps;                  // Fischer-Burmeister smoothing (m, m/s)            (1e-9)
   double eq_compliance;           // equality-constraint compliance E (m/N)           (0)
-  int    split_depth;             // max halvings of a step whose Newton fails        (3)
+  int    split_depth;             // max halvings of a step whose Newton fails        (6)
+  int    deep_splits;             // splits per step past 3 halvings                 (6)
   double split_tol;               // best residual (m/s) above which a step is split (1e-10)
   double regularization;          // relative compliance of contacts and sticking     (1e-6)
   double friction_creep;          // sticking friction's slip velocity per newton of friction

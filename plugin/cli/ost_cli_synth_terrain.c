@@ -291,6 +291,7 @@ int ter_engineSetup(terEngine* e, const char* name, const char* path, const synt
       return 1;
     }
     opt.split_depth = opt.split_depth > TER_SPLIT ? opt.split_depth : TER_SPLIT;
+    opt.deep_splits = opt.deep_splits > TER_DEEP_SPLITS ? opt.deep_splits : TER_DEEP_SPLITS;
     if (ost_setOptions(m, e->d, &opt) != OST_OK) {
       cli_error("synth: '%s': options refused: %s", path, ost_lastError(e->d));
       return 1;

@@ -27,9 +27,11 @@ extern "C" {
 #define TER_H          0.08       // s: Ostrich's step (T = 125)
 #define TER_DT         0.08       // s: interval of the loss samples (S = 125)
 #define TER_SPLIT      6          // at least this many halvings of a step whose Newton solve
-                                  // fails (ostOptions.split_depth, default 3): at 3, a step of
-                                  // the guess's rollout did not converge on 3 of seeds 1-50
-                                  // (residual 7e-5 to 6e-4 m/s), ending those trials at once
+                                  // fails (ostOptions.split_depth): at 3, a step of the guess's
+                                  // rollout did not converge on 3 of seeds 1-50 (residual 7e-5
+                                  // to 6e-4 m/s), ending those trials at once; with no bound on
+                                  // the splits past 3 (deep_splits), as measured
+#define TER_DEEP_SPLITS 1000
 
 #define TER_NWAVE      4          // sinusoids of the surface (gen_terrain.py WAVES)
 #define TER_NGRID      80         // samples per side (terrain_sinusoid.bin, .obj)

@@ -281,7 +281,8 @@ OSTPY_API const char* ostpy_name(const ostpyPhysics* p, int type, int id) {
 #define OSTPY_OPTIONS(X) X(newton_iter) X(pcr_iter) X(k_min) X(linesearch) X(warmstart) X(tol) \
   X(pcr_tol) X(timestep) X(margin) X(fb_eps) X(eq_compliance) X(split_depth) X(split_tol)       \
   X(regularization) X(friction_creep) X(geometry) X(depenetration_speed)    \
-  X(geometric_newton) X(cold_retry) X(convex_distance) X(geometric_retry) X(decouple_open)
+  X(geometric_newton) X(cold_retry) X(convex_distance) X(geometric_retry) X(decouple_open)   \
+  X(deep_splits)
 
 // ostStats' and ostTotals' fields, in this order for ostpy_stats
 #define OSTPY_STATS(X) X(status) X(newton_iter) X(best_iter) X(pcr_iter) X(substeps)             \

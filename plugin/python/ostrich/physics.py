@@ -234,7 +234,7 @@ class Physics:
     out = np.zeros(len(self._option_names))
     _lib_.ostpy_getOptions(self._handle.ptr, _lib.dptr(out))
     ints = {"newton_iter", "pcr_iter", "k_min", "linesearch", "warmstart", "split_depth",
-            "geometry"}
+            "deep_splits", "geometry"}
     return {n: int(v) if n in ints else float(v) for n, v in zip(self._option_names, out)}
 
   def set_options(self, **options):

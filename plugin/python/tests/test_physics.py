@@ -153,7 +153,7 @@ def test_cold_retry_option_and_counts():
   for retry in (0, 1):
     physics = ostrich.Physics.from_xml_path(path)
     assert physics.options["cold_retry"] == 1
-    # split_depth 3 (the default; halving six times also gets past the stall, more slowly)
+    # split_depth 3 (halving six times also gets past the stall, more slowly)
     physics.set_options(timestep=0.07, cold_retry=retry, split_depth=3)
     x = (1835 * 0x9E3779B97F4A7C15 + 1) % 2**64
     for k in range(100):
