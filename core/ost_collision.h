@@ -16,6 +16,7 @@
 #include "ost_collision_convex.h"
 #include "ost_collision_cylbox.h"
 #include "ost_collision_ellipsoid.h"
+#include "ost_collision_ellmesh.h"
 #include "ost_collision_terrain.h"
 #include "ost_geom.h"
 #include "ost_hd.h"
@@ -95,6 +96,10 @@ OST_HD int osti_collidePair(const ostModel* m, const ostKin* k, int p, ostContac
   }
   if (!handled && a.type == OST_GEOM_ELLIPSOID && b.type == OST_GEOM_BOX) {
     n = osti_collideEllipsoidBox(buf, &a, &b, margin, m->mpr_tolerance, m->mpr_iterations);
+    handled = 1;
+  }
+  if (!handled && a.type == OST_GEOM_ELLIPSOID && b.type == OST_GEOM_MESH && b.nface > 0) {
+    n = osti_collideEllipsoidMesh(buf, &a, &b, margin, m->mpr_tolerance, m->mpr_iterations);
     handled = 1;
   }
   if (!handled && (a.type == OST_GEOM_SPHERE || a.type == OST_GEOM_CAPSULE)

@@ -172,21 +172,13 @@ OST_HD int osti_ellPoint(const ostGeom* g, const ostNum p[3], ostNum* sd, ostNum
 }
 
 
-// edge along axis k at signs (si, sj) of the other two axes: 1 if it holds, with its signed
-// distance *dist, the ellipsoid's outward unit normal n and its witness x, the edge's point b
-OST_HD int osti_ellboxEdge(const ostNum c[3], const ostNum Rr[9], const ostNum s[3],
-                           const ostNum e[3], int k, ostNum si, ostNum sj, ostNum* dist,
-                           ostNum n[3], ostNum x[3], ostNum b[3]) {
-  int i = (k + 1) % 3, j = (k + 2) % 3;
-  // the shadow across the edge: shape matrix M2 = [Rr diag(s^2) Rr']_(i,j), centre (c_i, c_j)
-  ostNum A = 0, B = 0, C = 0;
-  for (int l = 0; l < 3; l++) {
-    ostNum s2 = s[l] * s[l];
-    A += Rr[3 * i + l] * Rr[3 * i + l] * s2;
-    B += Rr[3 * i + l] * Rr[3 * j + l] * s2;
-    C += Rr[3 * j + l] * Rr[3 * j + l] * s2;
-  }
-  // its principal axes: M2 = V diag(lam) V', V = [v -v_perp]
+// the outward unit normal m (2-d) of the ellipse of shape matrix [[A, B], [B, C]] (the points y
+// of y' M^-1 y = 1 about its centre) at its point nearest w (w relative to the centre, either
+// side): 1, or 0 where M is singular or w is at the centre. The ellipse is an ellipsoid's
+// shadow along a line (M = E' Q E, Q = Rr diag(s^2) Rr'), so m is the normal of the distance
+// between the ellipsoid and the line: an edge's contact
+OST_HD int osti_ellShadowNormal(ostNum A, ostNum B, ostNum C, const ostNum w[2], ostNum m[2]) {
+  // its principal axes: M = V diag(lam) V', V = [v -v_perp]
   ostNum half = 0.5 * (A - C), disc = sqrt(half * half + B * B);
   ostNum lp = 0.5 * (A + C) + disc, lm = 0.5 * (A + C) - disc, v[2];
   if (!(lm > 0)) {
@@ -202,22 +194,49 @@ OST_HD int osti_ellboxEdge(const ostNum c[3], const ostNum Rr[9], const ostNum s
     v[0] = (n1 > n2 ? v1[0] : v2[0]) / nn;
     v[1] = (n1 > n2 ? v1[1] : v2[1]) / nn;
   }
-  ostNum w[2] = {si * e[i] - c[i], sj * e[j] - c[j]};
   ostNum a[3] = {sqrt(lp), sqrt(lm), 1}, p[3] = {v[0] * w[0] + v[1] * w[1],
                                                  -v[1] * w[0] + v[0] * w[1], 0}, y[3];
   if (!osti_ellClosest(2, a, p, y)) {
     return 0;
   }
-  // outward normal (grad of the quadric) back in the plane, then in 3-d
+  // outward normal (grad of the quadric) back in the plane
   ostNum g0 = y[0] / lp, g1 = y[1] / lm, gn = sqrt(g0 * g0 + g1 * g1);
-  ostNum m0 = (v[0] * g0 - v[1] * g1) / gn, m1 = (v[1] * g0 + v[0] * g1) / gn;
-  // the box's normal -n must lie in the edge's quadrant
-  ostNum tol = OST_ELLBOX_SLACK;
-  if (si * m0 > tol || sj * m1 > tol) {
+  m[0] = (v[0] * g0 - v[1] * g1) / gn;
+  m[1] = (v[1] * g0 + v[0] * g1) / gn;
+  return 1;
+}
+
+
+// edge along axis k at signs (si, sj) of the other two axes: 1 if it holds, with its signed
+// distance *dist, the ellipsoid's outward unit normal n and its witness x, the edge's point b
+// (box frame; c, Rr, s: the ellipsoid's centre, axes and semi-axes there, as above). In the
+// plane across the edge the ellipsoid's shadow is an ellipse and the edge a point: their signed
+// distance and normal (osti_ellShadowNormal) are the pair's where the box's normal -n lies in
+// the edge's quadrant and the ellipsoid's witness (its support point along n) lies within the
+// edge's length
+OST_HD int osti_ellboxEdge(const ostNum c[3], const ostNum Rr[9], const ostNum s[3],
+                           const ostNum e[3], int k, ostNum si, ostNum sj, ostNum* dist,
+                           ostNum n[3], ostNum x[3], ostNum b[3]) {
+  int i = (k + 1) % 3, j = (k + 2) % 3;
+  // the shadow across the edge: shape matrix M2 = [Rr diag(s^2) Rr']_(i,j), centre (c_i, c_j)
+  ostNum A = 0, B = 0, C = 0;
+  for (int l = 0; l < 3; l++) {
+    ostNum s2 = s[l] * s[l];
+    A += Rr[3 * i + l] * Rr[3 * i + l] * s2;
+    B += Rr[3 * i + l] * Rr[3 * j + l] * s2;
+    C += Rr[3 * j + l] * Rr[3 * j + l] * s2;
+  }
+  ostNum w[2] = {si * e[i] - c[i], sj * e[j] - c[j]}, m[2];
+  if (!osti_ellShadowNormal(A, B, C, w, m)) {
     return 0;
   }
-  n[i] = m0;
-  n[j] = m1;
+  // the box's normal -n must lie in the edge's quadrant
+  ostNum tol = OST_ELLBOX_SLACK;
+  if (si * m[0] > tol || sj * m[1] > tol) {
+    return 0;
+  }
+  n[i] = m[0];
+  n[j] = m[1];
   n[k] = 0;
   osti_ellboxSupport(x, c, Rr, s, n);
   if (fabs(x[k]) > e[k] * (1 + tol)) {
@@ -238,8 +257,9 @@ OST_HD int osti_ellboxVertex(const ostNum c[3], const ostNum Rr[9], const ostNum
                              ostNum x[3]) {
   ostGeom e;
   e.type = OST_GEOM_ELLIPSOID;
-  e.nvert = 0;
+  e.nvert = e.nface = 0;
   e.vert = NULL;
+  e.face = NULL;
   e.rbound = 0;
   for (int l = 0; l < 3; l++) {
     e.pos[l] = c[l];

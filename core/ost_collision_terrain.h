@@ -15,6 +15,7 @@
 #define OSTRICH_CORE_OST_COLLISION_TERRAIN_H_
 
 #include <math.h>
+#include <stddef.h>
 
 #include "ost_collision_convex.h"
 #include "ost_collision_cylsurf.h"
@@ -112,6 +113,8 @@ OST_HD int osti_terrainPrism(ostContact* con, const ostNum prism[18], const ostG
   p.type = OST_GEOM_PRISM;
   p.nvert = 6;
   p.vert = prism;
+  p.nface = 0;
+  p.face = NULL;
   p.rbound = 0;
   for (int i = 0; i < 9; i++) p.mat[i] = (i % 4 == 0);
   for (int k = 0; k < 3; k++) {

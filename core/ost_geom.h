@@ -35,6 +35,8 @@ typedef struct ostGeom_ {  // one geom placed in the world, as a collision funct
   int           type;      // osttGeom
   int           nvert;     // mesh and prism: number of vertices in vert
   const ostNum* vert;      // mesh: convex-hull vertices in the geom frame; prism: world (nvert x 3)
+  int           nface;     // mesh: number of hull triangles in face (0: none known)
+  const int*    face;      // mesh: hull triangles, vertex ids into vert (nface x 3)
   ostNum        size[3];   // geom_size
   ostNum        pos[3];    // geom_xpos: position of the geom frame (m)
   ostNum        mat[9];    // geom_xmat: rotation, row-major, columns are the geom's axes

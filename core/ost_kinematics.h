@@ -311,9 +311,12 @@ OST_HD void osti_geom(const ostModel* m, const ostKin* k, int g, ostGeom* out) {
   if (out->type == OST_GEOM_MESH && id >= 0) {
     out->nvert = m->mesh_vertnum[id];
     out->vert = m->mesh_vert + 3 * (size_t)m->mesh_vertadr[id];
+    out->nface = m->mesh_facenum[id];
+    out->face = m->mesh_face + 3 * (size_t)m->mesh_faceadr[id];
   } else {
-    out->nvert = 0;
+    out->nvert = out->nface = 0;
     out->vert = NULL;
+    out->face = NULL;
   }
 }
 

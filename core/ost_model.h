@@ -35,7 +35,7 @@ typedef struct ostSizes_ {        // sizes of an ostModel
   int npair;                      // candidate collision pairs (filtered, explicit pairs included)
   int nmesh;                      // meshes
   int nmeshvert;                  // mesh vertices, all meshes (convex hull for convex meshes)
-  int nmeshface;                  // mesh faces, all meshes (terrain meshes only)
+  int nmeshface;                  // mesh faces, all meshes (terrain faces, hull triangles)
   int nhfield;                    // height fields
   int nhfielddata;                // height-field samples, all fields
   int ncell;                      // terrain grid cells, all terrain meshes
@@ -100,11 +100,11 @@ OST_STATIC_ASSERT(sizeof(ostSizes) % 8 == 0, "ostSizes: a multiple of 8 bytes");
   X(ostNum, pair_friction,    s.npair,       1)  /* sliding friction coefficient         */    \
   X(ostNum, pair_torsion,     s.npair,       1)  /* torsional coefficient (m; condim 4+) */    \
   X(ostNum, pair_rolling,     s.npair,       1)  /* rolling coefficient (m; condim 6)    */    \
-  /* meshes (convex: hull vertices; terrain: vertices, faces and an xy grid)              */   \
+  /* meshes (convex: vertices, hull triangles; terrain: vertices, faces and an xy grid)  */   \
   X(int,    mesh_vertadr,     s.nmesh,       1)  /* first vertex                         */    \
   X(int,    mesh_vertnum,     s.nmesh,       1)  /* number of vertices                   */    \
-  X(int,    mesh_faceadr,     s.nmesh,       1)  /* first face (terrain only)            */    \
-  X(int,    mesh_facenum,     s.nmesh,       1)  /* number of faces (terrain only)       */    \
+  X(int,    mesh_faceadr,     s.nmesh,       1)  /* first face                           */    \
+  X(int,    mesh_facenum,     s.nmesh,       1)  /* number of faces (0: no hull known)   */    \
   X(int,    mesh_grid,        s.nmesh,       3)  /* terrain grid: nx, ny, first cell     */    \
   X(ostNum, mesh_gridbox,     s.nmesh,       5)  /* terrain grid: x0, y0, dx, dy, base   */    \
   X(ostNum, mesh_vert,        s.nmeshvert,   3)  /* vertices in the mesh frame           */    \

@@ -42,7 +42,7 @@ static void freeContext(ostContext* c) {
   free(c->corepairs_block);
   ost_collisionFree(&c->col);
   free(c->hfield_data);
-  free(c->mesh_vert);
+  ost_meshFree(&c->mesh);
   free(c->sync_range);
   free(c->sync_shadow);
   free(c->kin_buf);
@@ -362,7 +362,7 @@ void ost_deleteData(mjData* d) {
 
 
 double ost_penetrationWith(const mjModel* m, const mjData* d, const ostModel* pairs,
-                           const ostNum* hfield_data, const ostNum* mesh_vert) {
+                           const ostNum* hfield_data, const ostMeshes* mesh) {
   double pen = 0;
   for (int i = 0; i < d->ncon; i++) {
     const mjContact* con = d->contact + i;
@@ -374,7 +374,7 @@ double ost_penetrationWith(const mjModel* m, const mjData* d, const ostModel* pa
   // for every engine, so that runs compare on one measure (MuJoCo's MPR depth is inexact there)
   for (int p = 0; p < pairs->s.npair; p++) {
     ostContact con[OST_MAXCONPAIR];
-    int n = ost_collideCorePair(m, d, hfield_data, mesh_vert, pairs->pair_geom1[p],
+    int n = ost_collideCorePair(m, d, hfield_data, mesh, pairs->pair_geom1[p],
                                 pairs->pair_geom2[p], 0, con);
     for (int i = 0; i < n; i++) {
       pen = -con[i].dist > pen ? -con[i].dist : pen;
@@ -387,16 +387,18 @@ double ost_penetrationWith(const mjModel* m, const mjData* d, const ostModel* pa
 double ost_maxPenetration(const mjModel* m, const mjData* d) {
   ostModel pairs;
   void* block = NULL;
-  ostNum *hdata = NULL, *vdata = NULL;
-  int hn = 0, vn = 0;
+  ostNum* hdata = NULL;
+  ostMeshes mesh;
+  memset(&mesh, 0, sizeof(mesh));
+  int hn = 0;
   if (ost_packCorePairs(m, &pairs, &block) != OST_OK || ost_hfieldData(m, &hdata, &hn) != OST_OK
-      || ost_meshData(m, &vdata, &vn) != OST_OK) {
+      || ost_meshData(m, &mesh) != OST_OK) {
     pairs.s.npair = 0;  // out of memory: MuJoCo's contacts only
   }
-  double pen = ost_penetrationWith(m, d, &pairs, hdata, vdata);
+  double pen = ost_penetrationWith(m, d, &pairs, hdata, &mesh);
   free(block);
   free(hdata);
-  free(vdata);
+  ost_meshFree(&mesh);
   return pen;
 }
 

@@ -70,6 +70,14 @@ typedef struct ostCollisionCache_ {  // the iterates' collision (ost_collision_m
                         // MuJoCo contacts would only be replaced (ost_rowsMujoco, publication)
 } ostCollisionCache;
 
+typedef struct ostMeshes_ {       // m's meshes as core's collision functions take them
+  ostNum* vert;                   // vertices as ostNum (3 nmeshvert); a mesh with a convex hull
+                                  // lists the hull's vertices first in its slot
+  int*    face;                   // hull triangles, ids into the mesh's slot of vert (3 each)
+  int*    faceadr;                // per mesh: its first triangle in face (nmesh)
+  int*    facenum;                // per mesh: its triangles, 0 without a hull (nmesh)
+} ostMeshes;
+
 typedef struct ostContext_ {
   const mjData*  d;               // the mjData this context serves
   const void*    d_buffer;        // d->buffer when created (detects pointer reuse)
@@ -137,8 +145,7 @@ typedef struct ostContext_ {
   void*          corepairs_block; // their arrays (ost_packCorePairs)
   ostNum*        hfield_data;     // the model's height-field data as ostNum (nhfielddata)
   int            hfield_n;        // its length
-  ostNum*        mesh_vert;       // the model's mesh vertices as ostNum (3 nmeshvert)
-  int            mesh_n;          // its length
+  ostMeshes      mesh;            // the model's meshes as core's collision takes them
   void*          kin_buf;         // its kinematics' single allocation
   ostKin         kin;             // native kinematics, pointers into kin_buf
   ostWorld       world;           // core solver state, pointers into world_buf
@@ -212,16 +219,20 @@ void ost_collisionReset(ostCollisionCache* k);
 void ost_collisionFree(ostCollisionCache* k);
 
 // the contacts of d from MuJoCo's general convex collision (MPR) with their true distance (GJK
-// on separated geoms) instead of MPR's inflated depth; mesh_vert from ost_meshData
-void ost_refineConvexContacts(const mjModel* m, mjData* d, const ostNum* mesh_vert);
+// on separated geoms) instead of MPR's inflated depth; mesh from ost_meshData
+void ost_refineConvexContacts(const mjModel* m, mjData* d, const ostMeshes* mesh);
 
 // a contact frame from its unit normal frame[0:3]: the tangents frame[3:9] as
 // MuJoCo 2.2.2's mj_collision makes them after a collision function returned the normal
 void ost_contactFrame(mjtNum frame[9]);
 
-// m's mesh vertices as ostNum in *buf (3 nmeshvert), reallocated when the size changed; a mesh
-// with a convex hull lists the hull's vertices first in its slot (support points search those)
-int ost_meshData(const mjModel* m, ostNum** buf, int* n);
+// m's meshes into *mesh (its old arrays freed): vertices as ostNum, a mesh with a convex hull
+// listing the hull's vertices first in its slot (support points search those), and the hull's
+// triangles by those ids (ostMeshes); OST_OK or OST_ERR_MEMORY (then *mesh holds nothing)
+int ost_meshData(const mjModel* m, ostMeshes* mesh);
+
+// frees ost_meshData's arrays
+void ost_meshFree(ostMeshes* mesh);
 
 // tendon t's Jacobian row of d into the dense row J (nv), whether MuJoCo stores it sparse or not
 void ost_tendonRow(const mjModel* m, const mjData* d, int t, mjtNum* J);
@@ -247,16 +258,16 @@ int ost_corePair(const mjModel* m, int g1, int g2);
 void ost_mixFriction(const mjModel* m, int g1, int g2, mjtNum fr[3]);
 
 // contacts of core pair (g1, g2) of m at d's kinematics with the given margin into con (room
-// for OST_MAXCONPAIR); hfield_data, mesh_vert: m's height-field data and mesh vertices as
-// ostNum (ost_hfieldData, ost_meshData)
+// for OST_MAXCONPAIR); hfield_data, mesh: m's height-field data as ostNum and meshes
+// (ost_hfieldData, ost_meshData)
 int ost_collideCorePair(const mjModel* m, const mjData* d, const ostNum* hfield_data,
-                        const ostNum* mesh_vert, int g1, int g2, ostNum margin, ostContact* con);
+                        const ostMeshes* mesh, int g1, int g2, ostNum margin, ostContact* con);
 
 // deepest penetration at d's kinematics (ost_maxPenetration) with the core pairs of m, m's
 // height-field data and mesh vertices already packed (a context's corepairs, hfield_data and
 // mesh_vert)
 double ost_penetrationWith(const mjModel* m, const mjData* d, const ostModel* pairs,
-                           const ostNum* hfield_data, const ostNum* mesh_vert);
+                           const ostNum* hfield_data, const ostMeshes* mesh);
 
 // m's height-field data as ostNum into *buf (reallocated to m->nhfielddata, *n its length)
 int ost_hfieldData(const mjModel* m, ostNum** buf, int* n);

@@ -187,8 +187,8 @@ static void addPair(ostModel* om, int* n, const mjModel* m, int terrain, int g1,
 
 // 1 if geom types t1, t2 (either order) are a pair that both providers collide with core's own
 // functions: cylinder-box (ost_collision_cylbox.h), ellipsoid-box, -sphere and -capsule
-// (_ellipsoid.h), sphere and capsule against cylinder and mesh (_ball.h): exact signed distances
-// where MPR's depth and normal are off; height
+// (_ellipsoid.h), ellipsoid-mesh (_ellmesh.h), sphere and capsule against cylinder and mesh
+// (_ball.h): exact signed distances where MPR's depth and normal are off; height
 // field-primitive (_terrain.h and _cylsurf.h: true gaps within the look-ahead, where MuJoCo
 // 2.2.2 reports -depth),
 // plane-mesh and plane-cylinder (ost_collision_primitive.h: contact sets that move continuously),
@@ -196,6 +196,7 @@ static void addPair(ostModel* om, int* n, const mjModel* m, int terrain, int g1,
 static int coreTypes(int t1, int t2) {
   int lo = t1 < t2 ? t1 : t2, hi = t1 < t2 ? t2 : t1;
   return ((lo == mjGEOM_CYLINDER || lo == mjGEOM_ELLIPSOID) && hi == mjGEOM_BOX)
+         || (lo == mjGEOM_ELLIPSOID && hi == mjGEOM_MESH)
          || ((lo == mjGEOM_SPHERE || lo == mjGEOM_CAPSULE)
              && (hi == mjGEOM_ELLIPSOID || hi == mjGEOM_CYLINDER || hi == mjGEOM_MESH))
          || (lo == mjGEOM_HFIELD && hi > mjGEOM_HFIELD && hi != mjGEOM_MESH)
@@ -327,6 +328,13 @@ int ost_packModel(const mjModel* m, int ncon_max, ostModel* om, void** block, ch
     s.ncell = t.gnx * t.gny;
     s.ncellface = ostu_terrainGridSize(&t);
   }
+  // the hull triangles of the other meshes (MuJoCo's convex-hull graph), for ellipsoid-mesh
+  // contacts (core/ost_collision_ellmesh.h)
+  for (int id = 0; id < m->nmesh; id++) {
+    if (m->mesh_graphadr[id] >= 0 && (terrain < 0 || id != m->geom_dataid[terrain])) {
+      s.nmeshface += m->mesh_graph[m->mesh_graphadr[id] + 1];
+    }
+  }
 
   // one block for every array
   size_t sz = ostu_modelSize(s);
@@ -397,8 +405,8 @@ int ost_packModel(const mjModel* m, int ncon_max, ostModel* om, void** block, ch
     om->geom_paired[om->pair_geom1[p]] = om->geom_paired[om->pair_geom2[p]] = 1;
   }
 
-  // meshes: all vertices (the support of a convex mesh over them equals its hull's); the
-  // terrain mesh also keeps its faces and grid
+  // meshes: all vertices (the support of a convex mesh over them equals its hull's) and the
+  // hull's triangles; the terrain mesh keeps its faces and grid instead
   COPY(om->mesh_vertadr, m->mesh_vertadr, s.nmesh);
   COPY(om->mesh_vertnum, m->mesh_vertnum, s.nmesh);
   COPY(om->mesh_vert, m->mesh_vert, 3 * s.nmeshvert);
@@ -406,9 +414,9 @@ int ost_packModel(const mjModel* m, int ncon_max, ostModel* om, void** block, ch
     // world-frame vertices (the terrain is static on the world body), faces and grid
     int id = m->geom_dataid[terrain];
     om->mesh_faceadr[id] = 0;
-    om->mesh_facenum[id] = s.nmeshface;
+    om->mesh_facenum[id] = t.nface;
     COPY(om->mesh_vert + 3 * m->mesh_vertadr[id], tvert, 3 * t.nvert);
-    COPY(om->mesh_face, t.face, 3 * s.nmeshface);
+    COPY(om->mesh_face, t.face, 3 * t.nface);
     int* grid = om->mesh_grid + 3 * id;
     ostNum* box = om->mesh_gridbox + 5 * id;
     grid[0] = t.gnx;
@@ -421,6 +429,19 @@ int ost_packModel(const mjModel* m, int ncon_max, ostModel* om, void** block, ch
     box[4] = t.base;
     ostu_terrainGridBuild(om->cell_adr, om->cell_num, om->cell_face, &t);
     free(tvert);
+  }
+  // hull triangles after the terrain's: MuJoCo's face_globalid (graph: numvert, numface,
+  // vert_edgeadr[numvert], vert_globalid[numvert], edge_localid[numvert + 3 numface],
+  // face_globalid[3 numface]) are ids within the mesh's vertices, as packed here
+  for (int id = 0, f = terrain >= 0 ? om->mesh_facenum[m->geom_dataid[terrain]] : 0;
+       id < m->nmesh; id++) {
+    if (m->mesh_graphadr[id] >= 0 && (terrain < 0 || id != m->geom_dataid[terrain])) {
+      const int* graph = m->mesh_graph + m->mesh_graphadr[id];
+      om->mesh_faceadr[id] = f;
+      om->mesh_facenum[id] = graph[1];
+      COPY(om->mesh_face + 3 * f, graph + 2 + 3 * graph[0] + 3 * graph[1], 3 * graph[1]);
+      f += graph[1];
+    }
   }
 
   // height fields

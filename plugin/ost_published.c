@@ -156,7 +156,7 @@ static void coreContacts(ostContext* c, const mjModel* mo, mjData* d) {
   for (int p = 0; p < cp->s.npair; p++) {
     ostContact found[OST_MAXCONPAIR];
     int g1 = cp->pair_geom1[p], g2 = cp->pair_geom2[p];
-    int nfound = ost_collideCorePair(mo, d, c->hfield_data, c->mesh_vert, g1, g2,
+    int nfound = ost_collideCorePair(mo, d, c->hfield_data, &c->mesh, g1, g2,
                                      cp->pair_margin[p], found);
     for (int k = 0; k < nfound; k++) {
       if (d->ncon >= mo->nconmax) {
@@ -196,7 +196,7 @@ static void fwdPosition(ostContext* c, const mjModel* mo, mjData* d) {
   mj_factorM(mo, d);
   mj_collision(mo, d);
   if (c->opt.convex_distance) {
-    ost_refineConvexContacts(mo, d, c->mesh_vert);
+    ost_refineConvexContacts(mo, d, &c->mesh);
   }
   coreContacts(c, mo, d);
   mj_makeConstraint(mo, d);

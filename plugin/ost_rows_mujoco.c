@@ -12,6 +12,7 @@
 #include "ost_collision_boxbox.h"
 #include "ost_collision_cylbox.h"
 #include "ost_collision_ellipsoid.h"
+#include "ost_collision_ellmesh.h"
 #include "ost_collision_gjk.h"
 #include "ost_collision_terrain.h"
 #include "ost_internal.h"
@@ -258,34 +259,78 @@ int ost_hfieldData(const mjModel* m, ostNum** buf, int* n) {
 }
 
 
-int ost_meshData(const mjModel* m, ostNum** buf, int* n) {
-  int status = floatsAsNum(m->mesh_vert, 3 * m->nmeshvert, buf, n);
-  // a mesh with a convex hull (MuJoCo's graph: numvert, numface, vert_edgeadr, vert_globalid,
-  // ...) lists the hull's vertices first in its slot: a support point is the largest of those
-  // (the Shadow Hand's fingertip: 1,065 of 16,122 vertices)
-  for (int id = 0; id < m->nmesh && !status; id++) {
-    if (m->mesh_graphadr[id] >= 0) {
-      const int* graph = m->mesh_graph + m->mesh_graphadr[id];
-      const float* src = m->mesh_vert + 3 * (size_t)m->mesh_vertadr[id];
-      ostNum* dst = *buf + 3 * (size_t)m->mesh_vertadr[id];
-      for (int v = 0; v < graph[0]; v++) {
-        for (int k = 0; k < 3; k++) dst[3 * v + k] = src[3 * graph[2 + graph[0] + v] + k];
-      }
-    }
-  }
-  return status;
+void ost_meshFree(ostMeshes* mesh) {
+  free(mesh->vert);
+  free(mesh->face);
+  free(mesh->faceadr);
+  free(mesh->facenum);
+  memset(mesh, 0, sizeof(*mesh));
 }
 
 
-// the vertices of mesh `id` a support point is searched over in ost_meshData's array: the
-// hull's, else all
-static int meshSupportCount(const mjModel* m, int id) {
-  return m->mesh_graphadr[id] >= 0 ? m->mesh_graph[m->mesh_graphadr[id]] : m->mesh_vertnum[id];
+int ost_meshData(const mjModel* m, ostMeshes* mesh) {
+  ost_meshFree(mesh);
+  int nface = 0, nvert = 0;
+  for (int id = 0; id < m->nmesh; id++) {
+    nface += m->mesh_graphadr[id] >= 0 ? m->mesh_graph[m->mesh_graphadr[id] + 1] : 0;
+    nvert = m->mesh_vertnum[id] > nvert ? m->mesh_vertnum[id] : nvert;
+  }
+  int* local = malloc(((size_t)nvert + 1) * sizeof(int));  // a mesh's vertex id -> hull id
+  mesh->vert = malloc((3 * (size_t)m->nmeshvert + 1) * sizeof(ostNum));
+  mesh->face = malloc((3 * (size_t)nface + 1) * sizeof(int));
+  mesh->faceadr = calloc((size_t)m->nmesh + 1, sizeof(int));
+  mesh->facenum = calloc((size_t)m->nmesh + 1, sizeof(int));
+  if (!local || !mesh->vert || !mesh->face || !mesh->faceadr || !mesh->facenum) {
+    free(local);
+    ost_meshFree(mesh);
+    return OST_ERR_MEMORY;
+  }
+  for (int i = 0; i < 3 * m->nmeshvert; i++) {
+    mesh->vert[i] = m->mesh_vert[i];
+  }
+  // a mesh with a convex hull (MuJoCo's graph: numvert, numface, vert_edgeadr[numvert],
+  // vert_globalid[numvert], edge_localid[numvert + 3 numface], face_globalid[3 numface])
+  // lists the hull's vertices first in its slot: a support point is the largest of those (the
+  // Shadow Hand's fingertip: 1,065 of 16,122 vertices); its triangles by those first ids
+  for (int id = 0, f = 0; id < m->nmesh; id++) {
+    if (m->mesh_graphadr[id] < 0) {
+      continue;
+    }
+    const int* graph = m->mesh_graph + m->mesh_graphadr[id];
+    int nv = graph[0], nf = graph[1];
+    const int* globalid = graph + 2 + nv;
+    const int* face = graph + 2 + 2 * nv + nv + 3 * nf;
+    const float* src = m->mesh_vert + 3 * (size_t)m->mesh_vertadr[id];
+    ostNum* dst = mesh->vert + 3 * (size_t)m->mesh_vertadr[id];
+    for (int v = 0; v < nv; v++) {
+      for (int k = 0; k < 3; k++) dst[3 * v + k] = src[3 * globalid[v] + k];
+      local[globalid[v]] = v;
+    }
+    mesh->faceadr[id] = f;
+    mesh->facenum[id] = nf;
+    for (int i = 0; i < 3 * nf; i++) {
+      mesh->face[3 * f + i] = local[face[i]];
+    }
+    f += nf;
+  }
+  free(local);
+  return OST_OK;
+}
+
+
+// mesh geom g's vertices (the hull's, else all) and hull triangles from mesh into out
+static void meshGeom(const mjModel* m, const ostMeshes* mesh, int g, ostGeom* out) {
+  int id = m->geom_dataid[g];
+  out->nvert = m->mesh_graphadr[id] >= 0 ? m->mesh_graph[m->mesh_graphadr[id]]
+                                         : m->mesh_vertnum[id];
+  out->vert = mesh->vert + 3 * (size_t)m->mesh_vertadr[id];
+  out->nface = mesh->facenum[id];
+  out->face = mesh->face + 3 * (size_t)mesh->faceadr[id];
 }
 
 
 int ost_collideCorePair(const mjModel* m, const mjData* d, const ostNum* hfield_data,
-                        const ostNum* mesh_vert, int g1, int g2, ostNum margin, ostContact* con) {
+                        const ostMeshes* mesh, int g1, int g2, ostNum margin, ostContact* con) {
   ostGeom a, b;
   if (m->geom_type[g1] > m->geom_type[g2]) {
     int t = g1;
@@ -328,17 +373,22 @@ int ost_collideCorePair(const mjModel* m, const mjData* d, const ostNum* hfield_
   if (a.type == mjGEOM_BOX && b.type == mjGEOM_BOX) {
     return osti_collideBoxBox(con, &a, &b, margin);
   }
-  if (a.type == mjGEOM_ELLIPSOID) {
+  if (b.type == mjGEOM_MESH) {
+    meshGeom(m, mesh, g2, &b);
+  }
+  if (a.type == mjGEOM_ELLIPSOID && b.type == mjGEOM_BOX) {
     return osti_collideEllipsoidBox(con, &a, &b, margin, m->opt.mpr_tolerance,
                                     m->opt.mpr_iterations);
   }
+  if (a.type == mjGEOM_ELLIPSOID) {
+    // a mesh: its hull's triangles, else (no hull graph) MPR as MuJoCo collides it
+    return b.nface > 0 ? osti_collideEllipsoidMesh(con, &a, &b, margin, m->opt.mpr_tolerance,
+                                                   m->opt.mpr_iterations)
+                       : osti_collideConvex(con, &a, &b, margin, m->opt.mpr_tolerance,
+                                            m->opt.mpr_iterations);
+  }
   if ((a.type == mjGEOM_SPHERE || a.type == mjGEOM_CAPSULE)
       && (b.type == mjGEOM_ELLIPSOID || b.type == mjGEOM_CYLINDER || b.type == mjGEOM_MESH)) {
-    if (b.type == mjGEOM_MESH) {
-      int id = m->geom_dataid[g2];
-      b.nvert = meshSupportCount(m, id);
-      b.vert = mesh_vert + 3 * (size_t)m->mesh_vertadr[id];
-    }
     return osti_collideBall(con, &a, &b, margin, m->opt.mpr_tolerance, m->opt.mpr_iterations);
   }
   return osti_collideCylinderBox(con, &a, &b, margin);
@@ -371,8 +421,8 @@ void ost_contactFrame(mjtNum frame[9]) {
 // deepens an overlap by exactly the margin, and a depth re-measured at margin 0 (MPR's, good to
 // mpr_tolerance) or along MPR's normal (not the face normal of resting faces) made resting
 // contacts stall. Pairs with several contacts (MuJoCo's multiCCD, off by default) are left as
-// they are. mesh_vert: the model's mesh vertices as ostNum (ost_meshData).
-void ost_refineConvexContacts(const mjModel* m, mjData* d, const ostNum* mesh_vert) {
+// they are. mesh: the model's meshes (ost_meshData).
+void ost_refineConvexContacts(const mjModel* m, mjData* d, const ostMeshes* mesh) {
   mjfCollision convex = mjCOLLISIONFUNC[mjGEOM_MESH][mjGEOM_MESH];  // mjc_Convex
   if (mjENABLED(mjENBL_MULTICCD)) {
     return;
@@ -393,9 +443,7 @@ void ost_refineConvexContacts(const mjModel* m, mjData* d, const ostNum* mesh_ve
       int gk = k ? g2 : g1;
       placedGeom(m, d, gk, g + k);
       if (m->geom_type[gk] == mjGEOM_MESH) {
-        int id = m->geom_dataid[gk];
-        g[k].nvert = meshSupportCount(m, id);
-        g[k].vert = mesh_vert + 3 * (size_t)m->mesh_vertadr[id];
+        meshGeom(m, mesh, gk, g + k);
       }
     }
     if (!osti_gjkDistance(g, g + 1, &dist, pa, pb) || !(dist > 0)) {
@@ -430,7 +478,7 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
   }
   ost_collision(&c->col, m, d);
   if (c->opt.convex_distance) {
-    ost_refineConvexContacts(m, d, c->mesh_vert);
+    ost_refineConvexContacts(m, d, &c->mesh);
   }
   // MuJoCo's rows for equalities and joint limits only: the contacts get Ostrich's own rows
   // below, so MuJoCo's contact rows (a pyramid or cone Jacobian per contact) are not built
@@ -518,7 +566,7 @@ int ost_rowsMujoco(ostContext* c, mjData* d, mjtNum h) {
   for (int p = 0; p < cp->s.npair; p++) {
     ostContact con[OST_MAXCONPAIR];
     int g1 = cp->pair_geom1[p], g2 = cp->pair_geom2[p];
-    int ncon = ost_collideCorePair(m, d, c->hfield_data, c->mesh_vert, g1, g2, cp->pair_margin[p],
+    int ncon = ost_collideCorePair(m, d, c->hfield_data, &c->mesh, g1, g2, cp->pair_margin[p],
                                    con);
     mjtNum fr[3] = {cp->pair_friction[p], cp->pair_torsion[p], cp->pair_rolling[p]};
     for (int i = 0; i < ncon; i++) {

@@ -131,7 +131,7 @@ static int prepareSynced(ostContext* c, const mjModel* m, int changed) {
     status = ost_nativeReady(c, m);
   } else if (ost_packCorePairs(c->mo, &c->corepairs, &c->corepairs_block)
              || ost_hfieldData(c->mo, &c->hfield_data, &c->hfield_n)
-             || ost_meshData(c->mo, &c->mesh_vert, &c->mesh_n)) {
+             || ost_meshData(c->mo, &c->mesh)) {
     // the mujoco provider collides core pairs with core's functions (ost_rows_mujoco.c)
     status = ost_fail(c, OST_ERR_MEMORY, "cannot allocate the core pair list");
   }
@@ -825,7 +825,7 @@ static int step2(ostContext* c, const mjModel* m, mjData* d, int synced) {
   } else {
     // MuJoCo's contacts, and the core pairs this step packed (ost_prepareContext)
     c->stats.max_penetration = ost_penetrationWith(m, d, &c->corepairs, c->hfield_data,
-                                                   c->mesh_vert);
+                                                   &c->mesh);
   }
   // a step whose committed substeps did not all reach tol is taken, but says so, also to a
   // caller that prints ost_lastError

@@ -262,6 +262,86 @@ START_TEST(test_legOnDiscRimConverges) {
 END_TEST
 
 
+// ellipsoids on convex meshes (tests/models/ellipsoid_on_mesh.xml; core/ost_collision_ellmesh.h
+// by the hulls' triangles, where MuJoCo 2.2.2 uses MPR):
+// (a) without gravity, the flat ellipsoid turned 0.3 rad about x with its lowest point 1 mm
+//     above the slab mesh: its published contact (mujoco provider; the native provider publishes
+//     MuJoCo's) has the true gap and the face's normal, to round-off (MPR gave the gap to 1e-10
+//     and a normal 0.018 rad off the face's, which no Newton iterate agrees with);
+// (b) with gravity, 2 s at h = 10 ms, both providers: every step converged, the flat and the
+//     tilted ellipsoid rest on their shortest semi-axes above the slab's top face (hard
+//     contact: to the sag the rows' regularization 1e-6 allows, 1e-6 g h^2 = 9.8e-10 m), and
+//     both providers agree (one contact function)
+START_TEST(test_ellipsoidOnMeshRests) {
+  ost_fixtureSetup();
+  mjModel* m = ost_fixtureLoadModel("../tests/models/ellipsoid_on_mesh.xml");
+  mjData* d = mj_makeData(m);
+  // the slab's top face: its mesh's float vertices above the geom's position
+  int slab = mj_name2id(m, mjOBJ_GEOM, "slab"), flat = mj_name2id(m, mjOBJ_GEOM, "flat");
+  double top = m->geom_pos[3 * slab + 2] + (double)0.05f;
+  {
+    ostOptions opt;
+    ost_defaultOptions(&opt);
+    ck_assert_int_eq(ost_setOptions(m, d, &opt), OST_OK);
+    double g = m->opt.gravity[2];
+    m->opt.gravity[2] = 0;
+    ost_modelChanged(m);
+    double c = cos(0.15), sn = sin(0.15), R[9], q[4] = {c, sn, 0, 0}, ext = 0;
+    mju_quat2Mat(R, q);
+    for (int i = 0; i < 3; i++) ext += pow(m->geom_size[3 * flat + i] * R[6 + i], 2);
+    d->qpos[2] = top + 0.001 + sqrt(ext);
+    d->qpos[3] = c;
+    d->qpos[4] = sn;
+    d->qpos[5] = d->qpos[6] = 0;
+    ck_assert_int_eq(ost_step(m, d), OST_OK);
+    int found = 0;
+    for (int i = 0; i < d->ncon; i++) {
+      const mjContact* con = d->contact + i;
+      if (con->geom1 == flat || con->geom2 == flat) {
+        double sg = con->geom1 == flat ? 1 : -1;  // the normal from the ellipsoid to the slab
+        printf("ellipsoid 1 mm above a mesh: gap %.17g, normal %.3g %.3g %.17g\n", con->dist,
+               con->frame[0], con->frame[1], con->frame[2]);
+        ck_assert_double_eq_tol(con->dist, 0.001, 1e-14);
+        ck_assert_double_eq_tol(sg * con->frame[2], -1, 1e-14);
+        ck_assert_double_eq_tol(con->frame[0], 0, 1e-14);
+        ck_assert_double_eq_tol(con->frame[1], 0, 1e-14);
+        found++;
+      }
+    }
+    ck_assert_int_eq(found, 1);
+    m->opt.gravity[2] = g;
+    ost_modelChanged(m);
+  }
+  double z[2][2];
+  for (int geo = 0; geo < 2; geo++) {
+    ostOptions opt;
+    ost_defaultOptions(&opt);
+    opt.geometry = geo ? OST_GEOMETRY_NATIVE : OST_GEOMETRY_MUJOCO;
+    mj_resetData(m, d);
+    ck_assert_int_eq(ost_setOptions(m, d, &opt), OST_OK);
+    int iters = 0;
+    for (int k = 0; k < 200; k++) {
+      int status = ost_step(m, d);
+      ck_assert_msg(status == OST_OK, "geometry %d step %d: status %d, residual %g", geo, k,
+                    status, ost_stats(d)->residual);
+      iters += ost_stats(d)->newton_iter;
+    }
+    z[geo][0] = d->qpos[2];
+    z[geo][1] = d->qpos[9];
+    printf("ellipsoids on a mesh, geometry %d: heights above the slab - semi-axis %.3g, %.3g m; "
+           "%.2f Newton iterates per step\n", geo, z[geo][0] - top - 0.02,
+           z[geo][1] - top - 0.015, iters / 200.0);
+    ck_assert_double_eq_tol(z[geo][0], top + 0.02, 1e-9);
+    ck_assert_double_eq_tol(z[geo][1], top + 0.015, 1e-9);
+  }
+  ck_assert_double_eq_tol(z[0][0], z[1][0], 1e-12);
+  ck_assert_double_eq_tol(z[0][1], z[1][1], 1e-12);
+  ost_deleteData(d);
+  mj_deleteModel(m);
+}
+END_TEST
+
+
 // equal boxes stacked with small offsets (three high, and two offset by (2, 1) cm): a static
 // equilibrium exists (every centre of mass above its support), so the stack must come to rest
 // at the boxes' heights, with both geometry providers at h = 10 and 50 ms, every step converged
@@ -707,6 +787,7 @@ int main(void) {
   tcase_add_test(tc, test_ellipsoidsOnBoxConverge);
   tcase_add_test(tc, test_ellipsoidPairsConverge);
   tcase_add_test(tc, test_legOnDiscRimConverges);
+  tcase_add_test(tc, test_ellipsoidOnMeshRests);
   tcase_add_test(tc, test_boxStacksConverge);
   tcase_add_test(tc, test_inclineSticking);
   tcase_add_test(tc, test_inclineSliding);
