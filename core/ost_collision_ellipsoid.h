@@ -250,11 +250,37 @@ OST_HD int osti_ellboxEdge(const ostNum c[3], const ostNum Rr[9], const ostNum s
 }
 
 
-// vertex v = sg e: 1 if it holds, with its signed distance, normal n, witness x (as above): the
-// point-ellipsoid distance (osti_ellPoint) with the ellipsoid placed in the box frame
-OST_HD int osti_ellboxVertex(const ostNum c[3], const ostNum Rr[9], const ostNum s[3],
-                             const ostNum v[3], const ostNum sg[3], ostNum* dist, ostNum n[3],
-                             ostNum x[3]) {
+// ellipsoid g1's centre c and axes Rr (its columns, row-major) in the frame of geom g2
+OST_HD void osti_ellInFrame(const ostGeom* g1, const ostGeom* g2, ostNum c[3], ostNum Rr[9]) {
+  ostNum dif[3] = {g1->pos[0] - g2->pos[0], g1->pos[1] - g2->pos[1], g1->pos[2] - g2->pos[2]};
+  osti_boxMulMatTVec(c, g2->mat, dif);
+  // Rr = R2' Re
+  for (int r = 0; r < 3; r++) {
+    for (int q = 0; q < 3; q++) {
+      Rr[3 * r + q] = g2->mat[r] * g1->mat[q] + g2->mat[3 + r] * g1->mat[3 + q]
+                      + g2->mat[6 + r] * g1->mat[6 + q];
+    }
+  }
+}
+
+
+// the contact of value dist, normal n (ellipsoid -> g2) and witnesses x (ellipsoid) and b
+// (g2), all in g2's frame, into con in the world frame (point midway between the witnesses)
+OST_HD void osti_ellFrameContact(ostContact* con, const ostGeom* g2, ostNum dist,
+                                 const ostNum n[3], const ostNum x[3], const ostNum b[3]) {
+  ostNum nw[3], mid[3] = {0.5 * (x[0] + b[0]), 0.5 * (x[1] + b[1]), 0.5 * (x[2] + b[2])}, pos[3];
+  osti_boxMulMatVec(nw, g2->mat, n);
+  osti_boxMulMatVec(pos, g2->mat, mid);
+  for (int l = 0; l < 3; l++) pos[l] += g2->pos[l];
+  osti_primSetContact(con, dist, pos, nw, NULL);
+}
+
+
+// point p against the ellipsoid of centre c, axes Rr and semi-axes s (all in one frame): 1 with
+// its signed distance, the ellipsoid's outward normal n and its witness x there (osti_ellPoint);
+// 0 at the centre
+OST_HD int osti_ellFramePoint(const ostNum c[3], const ostNum Rr[9], const ostNum s[3],
+                              const ostNum p[3], ostNum* dist, ostNum n[3], ostNum x[3]) {
   ostGeom e;
   e.type = OST_GEOM_ELLIPSOID;
   e.nvert = e.nface = 0;
@@ -266,7 +292,16 @@ OST_HD int osti_ellboxVertex(const ostNum c[3], const ostNum Rr[9], const ostNum
     e.size[l] = s[l];
   }
   for (int l = 0; l < 9; l++) e.mat[l] = Rr[l];
-  if (!osti_ellPoint(&e, v, dist, n, x)) {
+  return osti_ellPoint(&e, p, dist, n, x);
+}
+
+
+// vertex v = sg e: 1 if it holds, with its signed distance, normal n, witness x (as above): the
+// point-ellipsoid distance with the ellipsoid placed in the box frame
+OST_HD int osti_ellboxVertex(const ostNum c[3], const ostNum Rr[9], const ostNum s[3],
+                             const ostNum v[3], const ostNum sg[3], ostNum* dist, ostNum n[3],
+                             ostNum x[3]) {
+  if (!osti_ellFramePoint(c, Rr, s, v, dist, n, x)) {
     return 0;
   }
   for (int l = 0; l < 3; l++) {
@@ -283,16 +318,8 @@ OST_HD int osti_collideEllipsoidBox(ostContact* con, const ostGeom* g1, const os
                                     ostNum margin, ostNum tol, int maxiter) {
   const ostNum* e = g2->size;
   const ostNum* s = g1->size;
-  ostNum dif[3] = {g1->pos[0] - g2->pos[0], g1->pos[1] - g2->pos[1], g1->pos[2] - g2->pos[2]};
-  ostNum c[3], Rr[9];
-  osti_boxMulMatTVec(c, g2->mat, dif);
-  // Rr = Rb' Re: the ellipsoid's axes (columns) in the box frame
-  for (int r = 0; r < 3; r++) {
-    for (int q = 0; q < 3; q++) {
-      Rr[3 * r + q] = g2->mat[r] * g1->mat[q] + g2->mat[3 + r] * g1->mat[3 + q]
-                      + g2->mat[6 + r] * g1->mat[6 + q];
-    }
-  }
+  ostNum c[3], Rr[9];  // the ellipsoid in the box frame
+  osti_ellInFrame(g1, g2, c, Rr);
   ostNum slack = 1 + OST_ELLBOX_SLACK;
 
   // faces: the best of the six lower bounds, taken if its support point lies over the face;
@@ -360,12 +387,7 @@ OST_HD int osti_collideEllipsoidBox(ostContact* con, const ostGeom* g1, const os
   if (!(dist < margin)) {
     return 0;
   }
-  // world frame: normal Rb n (ellipsoid -> box), point midway between the witnesses
-  ostNum nw[3], mid[3] = {0.5 * (x[0] + b[0]), 0.5 * (x[1] + b[1]), 0.5 * (x[2] + b[2])}, pos[3];
-  osti_boxMulMatVec(nw, g2->mat, n);
-  osti_boxMulMatVec(pos, g2->mat, mid);
-  for (int l = 0; l < 3; l++) pos[l] += g2->pos[l];
-  osti_primSetContact(con, dist, pos, nw, NULL);
+  osti_ellFrameContact(con, g2, dist, n, x, b);
   return 1;
 }
 

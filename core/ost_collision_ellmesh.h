@@ -13,7 +13,7 @@
 //                              itself where p lies over the triangle (the face holds) apart
 //   edge                       the signed distance in the plane across the edge between its
 //                              point and the ellipsoid's shadow (osti_ellShadowNormal)
-//   vertex                     the point's signed distance to the ellipsoid (osti_ellPoint)
+//   vertex                     the point's signed distance to the ellipsoid (osti_ellFramePoint)
 // An edge or vertex value is d where it holds: its witness lies on the feature and no hull
 // vertex reaches further along its normal (a scan of the hull, as max_hull(n.x)). Every face
 // is tried (the best face that holds apart is taken at once); where the best face does not
@@ -172,24 +172,6 @@ OST_HD int osti_ellmeshEdge(const ostNum c[3], const ostNum Rr[9], const ostNum 
 }
 
 
-// vertex p of the hull: 1 with its value, normal and witness x (as above; 0 at the centre)
-OST_HD int osti_ellmeshVertex(const ostNum c[3], const ostNum Rr[9], const ostNum s[3],
-                              const ostNum p[3], ostNum* dist, ostNum n[3], ostNum x[3]) {
-  ostGeom e;
-  e.type = OST_GEOM_ELLIPSOID;
-  e.nvert = e.nface = 0;
-  e.vert = NULL;
-  e.face = NULL;
-  e.rbound = 0;
-  for (int l = 0; l < 3; l++) {
-    e.pos[l] = c[l];
-    e.size[l] = s[l];
-  }
-  for (int l = 0; l < 9; l++) e.mat[l] = Rr[l];
-  return osti_ellPoint(&e, p, dist, n, x);
-}
-
-
 // the distance from c to point p0 (p1 NULL), or to the segment p0 p1 (line 1: its line)
 OST_HD ostNum osti_ellmeshReach(const ostNum c[3], const ostNum p0[3], const ostNum* p1,
                                 int line) {
@@ -240,7 +222,7 @@ OST_HD int osti_ellmeshFeatures(const ostGeom* g, const ostNum c[3], const ostNu
         continue;
       }
       int ok = i < 3 ? osti_ellmeshEdge(c, Rr, s, p0, p1, tol, &dd, nn, xx, bb)
-                     : osti_ellmeshVertex(c, Rr, s, p0, &dd, nn, xx);
+                     : osti_ellFramePoint(c, Rr, s, p0, &dd, nn, xx);
       // apart, a value is a distance between points of the shapes only where positive (an
       // edge's line may pierce the ellipsoid beside the edge)
       if (!ok || (sep && !(dd > 0)) || (found && (sep ? !(dd < *dist) : !(dd > *dist)))) {
@@ -270,16 +252,8 @@ OST_HD int osti_ellmeshFeatures(const ostGeom* g, const ostNum c[3], const ostNu
 OST_HD int osti_collideEllipsoidMesh(ostContact* con, const ostGeom* g1, const ostGeom* g2,
                                      ostNum margin, ostNum tol, int maxiter) {
   const ostNum* s = g1->size;
-  ostNum dif[3] = {g1->pos[0] - g2->pos[0], g1->pos[1] - g2->pos[1], g1->pos[2] - g2->pos[2]};
-  ostNum c[3], Rr[9];
-  osti_boxMulMatTVec(c, g2->mat, dif);
-  // Rr = Rm' Re: the ellipsoid's axes (columns) in the mesh frame
-  for (int r = 0; r < 3; r++) {
-    for (int q = 0; q < 3; q++) {
-      Rr[3 * r + q] = g2->mat[r] * g1->mat[q] + g2->mat[3 + r] * g1->mat[3 + q]
-                      + g2->mat[6 + r] * g1->mat[6 + q];
-    }
-  }
+  ostNum c[3], Rr[9];  // the ellipsoid in the mesh frame
+  osti_ellInFrame(g1, g2, c, Rr);
   ostNum slack = OST_ELLMESH_SLACK * g2->rbound;
 
   // faces: the best lower bound, and the best face that holds
@@ -357,12 +331,7 @@ OST_HD int osti_collideEllipsoidMesh(ostContact* con, const ostGeom* g1, const o
   if (!(dist < margin)) {
     return 0;
   }
-  // world frame: normal Rm n (ellipsoid -> mesh), point midway between the witnesses
-  ostNum nw[3], mid[3] = {0.5 * (x[0] + b[0]), 0.5 * (x[1] + b[1]), 0.5 * (x[2] + b[2])}, pos[3];
-  osti_boxMulMatVec(nw, g2->mat, n);
-  osti_boxMulMatVec(pos, g2->mat, mid);
-  for (int l = 0; l < 3; l++) pos[l] += g2->pos[l];
-  osti_primSetContact(con, dist, pos, nw, NULL);
+  osti_ellFrameContact(con, g2, dist, n, x, b);
   return 1;
 }
 
