@@ -21,9 +21,10 @@
 // least value of the edges and vertices (each a distance between points of the two shapes):
 // those of the faces around the best one (sharing a vertex with it), checked to hold, else
 // all. In contact, the largest of the best face's value and the edges' and vertices' that hold,
-// over the faces around the best one and then over all, skipping features that a bound from the ellipsoid's inscribed ball shows cannot do
-// better. Values meet at the borders between features, so the contact is continuous. A point
-// inside an ellipsoid deeper than its least radius of curvature (smin^2 / smax) can have
+// over the faces around the best one and then over all, skipping features that a bound from
+// the ellipsoid's inscribed ball shows cannot do better or that lie too far from it to carry
+// the witness. Values meet at the borders between features, so the contact is continuous. A
+// point inside an ellipsoid deeper than its least radius of curvature (smin^2 / smax) can have
 // several normals to its surface, of which an edge's or vertex's value takes the nearest: in
 // such deep penetrations the value is a lower bound of d (the separation along a supporting
 // direction), not always d. Where no feature holds (a degenerate hull) the pair falls back to
@@ -50,6 +51,7 @@ extern "C" {
 
 #define OST_ELLMESH_SLACK 1e-9  // a feature holds within this share of the hull's size
                                 // (round-off at the borders between features)
+#define OST_ELLMESH_TIES 8      // faces within slack of the best value whose holding is tested
 
 
 // a hull vertex (mesh frame, ostNum)
@@ -187,22 +189,68 @@ OST_HD ostNum osti_ellmeshReach(const ostNum c[3], const ostNum p0[3], const ost
 }
 
 
+#define OST_ELLMESH_SEEN 32  // vertices of the faces around the best one tried only once
+
+
+// one candidate of osti_ellmeshFeatures, edge (p0, p1) or vertex p0 (p1 NULL): its value, if it
+// can do better than the one found and holds, replaces it (see there). Returns found
+OST_HD int osti_ellmeshTry(const ostGeom* g, const ostNum c[3], const ostNum Rr[9],
+                           const ostNum s[3], const ostNum* p0, const ostNum* p1, int sep,
+                           ostNum tol, ostNum near_max, ostNum smin, ostNum smax, int found,
+                           ostNum* dist, ostNum n[3], ostNum x[3], ostNum b[3]) {
+  ostNum reach = osti_ellmeshReach(c, p0, p1, 0);
+  if (found && (sep ? !(reach - smax < *dist)
+                    : !(osti_ellmeshReach(c, p0, p1, 1) - smin > *dist))) {
+    return found;
+  }
+  if (!sep && !(reach <= near_max)) {
+    return found;  // in contact the witness lies within near_max of c
+  }
+  ostNum dd, nn[3], xx[3], bb[3] = {p0[0], p0[1], p0[2]};
+  int ok = p1 ? osti_ellmeshEdge(c, Rr, s, p0, p1, tol, &dd, nn, xx, bb)
+              : osti_ellFramePoint(c, Rr, s, p0, &dd, nn, xx);
+  // apart, a value is a distance between points of the shapes only where positive (an edge's
+  // line may pierce the ellipsoid beside the edge)
+  if (!ok || (sep && !(dd > 0)) || (found && (sep ? !(dd < *dist) : !(dd > *dist)))) {
+    return found;
+  }
+  if (!sep && !osti_hullSupports(g, nn, bb, tol)) {
+    return found;
+  }
+  *dist = dd;
+  for (int l = 0; l < 3; l++) {
+    n[l] = nn[l];
+    x[l] = xx[l];
+    b[l] = bb[l];
+  }
+  return 1;
+}
+
+
 // the best edge or vertex of the faces around face `best` (sharing a vertex with it; all
 // faces if all) into (dist, n, x, b), found set: apart (sep: the shapes are apart) each value
 // is a distance between points of the two shapes, at least d, and d the least of them; in
 // contact the largest value that holds (osti_hullSupports) against the one found. Features
 // that cannot do better are skipped by bounds from the ellipsoid's centre c and its least and
 // largest semi-axes: a value is at most (the feature's line's or point's distance from c) -
-// smin (the inscribed ball) and, apart, at least (the segment's or point's distance) - smax.
-// Returns found
+// smin (the inscribed ball) and, apart, at least (the segment's or point's distance) - smax;
+// in contact only features within near_max of c can hold the maximizer's witness. Each vertex
+// is tried once; over all faces each edge once, from the face where it runs from its lower
+// vertex id (MuJoCo's hull triangles are wound consistently: each edge runs one way in each of
+// its two faces). Returns found
 OST_HD int osti_ellmeshFeatures(const ostGeom* g, const ostNum c[3], const ostNum Rr[9],
                                 const ostNum s[3], int best, int all, int sep, ostNum tol,
-                                int found, ostNum* dist, ostNum n[3], ostNum x[3],
-                                ostNum b[3]) {
+                                ostNum near_max, int found, ostNum* dist, ostNum n[3],
+                                ostNum x[3], ostNum b[3]) {
   const int* tb = g->face + 3 * (size_t)best;
   ostNum smin = s[0] < s[1] ? s[0] : s[1], smax = s[0] > s[1] ? s[0] : s[1];
   smin = s[2] < smin ? s[2] : smin;
   smax = s[2] > smax ? s[2] : smax;
+  int seen[OST_ELLMESH_SEEN], nseen = 0;
+  for (int v = 0; all && v < g->nvert; v++) {
+    found = osti_ellmeshTry(g, c, Rr, s, osti_hullVert(g, v), NULL, sep, tol, near_max, smin,
+                            smax, found, dist, n, x, b);
+  }
   for (int f = 0; f < g->nface; f++) {
     const int* t = g->face + 3 * (size_t)f;
     int near = all;
@@ -212,35 +260,22 @@ OST_HD int osti_ellmeshFeatures(const ostGeom* g, const ostNum c[3], const ostNu
     if (!near) {
       continue;
     }
-    for (int i = 0; i < 6; i++) {
-      // the face's three edges, then its three vertices (shared ones are tried again: the
-      // same value, no harm)
-      ostNum dd, nn[3], xx[3], bb[3] = {0, 0, 0};
-      const ostNum *p0 = osti_hullVert(g, t[i % 3]), *p1 = osti_hullVert(g, t[(i + 1) % 3]);
-      if (found && (sep ? !(osti_ellmeshReach(c, p0, i < 3 ? p1 : NULL, 0) - smax < *dist)
-                        : !(osti_ellmeshReach(c, p0, i < 3 ? p1 : NULL, 1) - smin > *dist))) {
+    for (int i = 0; i < 3; i++) {
+      int v0 = t[i], v1 = t[(i + 1) % 3];
+      if (!all || v0 < v1) {
+        found = osti_ellmeshTry(g, c, Rr, s, osti_hullVert(g, v0), osti_hullVert(g, v1), sep,
+                                tol, near_max, smin, smax, found, dist, n, x, b);
+      }
+      int again = all;
+      for (int k = 0; k < nseen; k++) again |= seen[k] == v0;
+      if (again) {
         continue;
       }
-      int ok = i < 3 ? osti_ellmeshEdge(c, Rr, s, p0, p1, tol, &dd, nn, xx, bb)
-                     : osti_ellFramePoint(c, Rr, s, p0, &dd, nn, xx);
-      // apart, a value is a distance between points of the shapes only where positive (an
-      // edge's line may pierce the ellipsoid beside the edge)
-      if (!ok || (sep && !(dd > 0)) || (found && (sep ? !(dd < *dist) : !(dd > *dist)))) {
-        continue;
+      if (nseen < OST_ELLMESH_SEEN) {
+        seen[nseen++] = v0;
       }
-      if (i >= 3) {
-        for (int l = 0; l < 3; l++) bb[l] = p0[l];
-      }
-      if (!sep && !osti_hullSupports(g, nn, bb, tol)) {
-        continue;
-      }
-      found = 1;
-      *dist = dd;
-      for (int l = 0; l < 3; l++) {
-        n[l] = nn[l];
-        x[l] = xx[l];
-        b[l] = bb[l];
-      }
+      found = osti_ellmeshTry(g, c, Rr, s, osti_hullVert(g, v0), NULL, sep, tol, near_max, smin,
+                              smax, found, dist, n, x, b);
     }
   }
   return found;
@@ -256,13 +291,23 @@ OST_HD int osti_collideEllipsoidMesh(ostContact* con, const ostGeom* g1, const o
   osti_ellInFrame(g1, g2, c, Rr);
   ostNum slack = OST_ELLMESH_SLACK * g2->rbound;
 
-  // faces: the best lower bound, and the best face that holds
-  int best = -1, held = -1;
+  // faces: the best lower bound top, and the faces whose value comes within slack of it (up to
+  // OST_ELLMESH_TIES: a face and its coplanar neighbours), whose holding is tested after. A
+  // face's value n_f.c - off - |diag(s) Rr' n_f| is at most n_f.c - off - smin: a face that
+  // cannot come near top is skipped before its support point
+  ostNum smin = s[0] < s[1] ? s[0] : s[1];
+  smin = s[2] < smin ? s[2] : smin;
+  int best = -1, held = -1, tie[OST_ELLMESH_TIES], ntie = 0;
   ostNum top = 0, dist = 0, n[3] = {0, 0, 0}, x[3] = {0, 0, 0}, b[3] = {0, 0, 0};
   ostNum tn[3] = {0, 0, 0}, tx[3] = {0, 0, 0}, tb[3] = {0, 0, 0};  // the best face's
+  ostNum tieh[OST_ELLMESH_TIES];
   for (int f = 0; f < g2->nface; f++) {
     ostNum nf[3], off, u[3], p[3];
     if (!osti_hullFace(g2, f, nf, &off)) {
+      continue;
+    }
+    ostNum above = nf[0] * c[0] + nf[1] * c[1] + nf[2] * c[2] - off;
+    if (best >= 0 && !(above - smin >= top - slack)) {
       continue;
     }
     for (int l = 0; l < 3; l++) u[l] = -nf[l];  // the ellipsoid's normal toward the face
@@ -276,15 +321,34 @@ OST_HD int osti_collideEllipsoidMesh(ostContact* con, const ostGeom* g1, const o
         tx[l] = p[l];
         tb[l] = p[l] - h * nf[l];
       }
+      // the ties left behind by more than slack go
+      int keep = 0;
+      for (int k = 0; k < ntie; k++) {
+        if (tieh[k] >= top - slack) {
+          tie[keep] = tie[k];
+          tieh[keep++] = tieh[k];
+        }
+      }
+      ntie = keep;
     }
-    if (held >= 0 && !(h > dist)) {
+    if (h >= top - slack && ntie < OST_ELLMESH_TIES) {
+      tie[ntie] = f;
+      tieh[ntie++] = h;
+    }
+  }
+  // the best face that holds among the ties
+  for (int k = 0; k < ntie; k++) {
+    ostNum nf[3], off, u[3], p[3], foot[3];
+    if (!(tieh[k] >= top - slack) || (held >= 0 && !(tieh[k] > dist))
+        || !osti_hullFace(g2, tie[k], nf, &off)) {
       continue;
     }
-    ostNum foot[3];
-    for (int l = 0; l < 3; l++) foot[l] = p[l] - h * nf[l];
-    if (osti_hullFaceHolds(g2, f, nf, foot, slack)) {
-      held = f;
-      dist = h;
+    for (int l = 0; l < 3; l++) u[l] = -nf[l];
+    osti_ellboxSupport(p, c, Rr, s, u);
+    for (int l = 0; l < 3; l++) foot[l] = p[l] - tieh[k] * nf[l];
+    if (osti_hullFaceHolds(g2, tie[k], nf, foot, slack)) {
+      held = tie[k];
+      dist = tieh[k];
       for (int l = 0; l < 3; l++) {
         n[l] = u[l];
         x[l] = p[l];
@@ -314,10 +378,23 @@ OST_HD int osti_collideEllipsoidMesh(ostContact* con, const ostGeom* g1, const o
         b[l] = tb[l];
       }
     }
+    // in contact the maximizer's witness on the hull lies within max(d, 0) of the ellipsoid,
+    // so within smax + max(d, 0) of its centre, and max(d, 0) <= |v - c| - smin for every hull
+    // vertex v (apart d is at most v's distance, which the inscribed ball bounds)
+    ostNum smax = s[0] > s[1] ? s[0] : s[1], up = 0;
+    smax = s[2] > smax ? s[2] : smax;
+    if (!sep) {
+      for (int v = 0; v < g2->nvert; v++) {
+        ostNum r = osti_ellmeshReach(c, osti_hullVert(g2, v), NULL, 0) - smin;
+        up = v == 0 || r < up ? r : up;
+      }
+      up = up > 0 ? up : 0;
+    }
     // the faces around the best one, then (in contact always, apart where the least value
     // found does not hold) every face's, skipping features that cannot do better
     for (int all = 0; all < 2; all++) {
-      found = osti_ellmeshFeatures(g2, c, Rr, s, best, all, sep, slack, found, &dist, n, x, b);
+      found = osti_ellmeshFeatures(g2, c, Rr, s, best, all, sep, slack, smax + up + slack, found,
+                                   &dist, n, x, b);
       if (sep && found && !osti_hullSupports(g2, n, b, slack)) {
         found = 0;  // a coarse hull: the least value lies beyond the faces around the best
       } else if (sep) {

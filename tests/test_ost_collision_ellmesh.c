@@ -50,6 +50,20 @@ static void makeHull(const double* pt, int npt, hull* h) {
   for (int i = 0; i < 3 * h->nvert; i++) h->vert[i] = m->mesh_vert[i];
   for (int i = 0; i < 3 * h->nface; i++) h->face[i] = graph[2 + 3 * graph[0] + 3 * graph[1] + i];
   mj_deleteModel(m);
+  // the triangles are wound consistently (ost_collision_ellmesh.h tries each edge once, from the
+  // face where it runs from its lower vertex id): every edge runs one way in exactly one face
+  for (int f = 0; f < h->nface; f++) {
+    for (int i = 0; i < 3; i++) {
+      int a = h->face[3 * f + i], b = h->face[3 * f + (i + 1) % 3], same = 0, reverse = 0;
+      for (int g = 0; g < 3 * h->nface; g++) {
+        int c = h->face[g], d = h->face[3 * (g / 3) + (g % 3 + 1) % 3];
+        same += c == a && d == b;
+        reverse += c == b && d == a;
+      }
+      ck_assert_int_eq(same, 1);
+      ck_assert_int_eq(reverse, 1);
+    }
+  }
 }
 
 
