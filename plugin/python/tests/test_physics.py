@@ -144,6 +144,23 @@ def test_options_stats_and_unconverged_step_warns():
   assert physics.step() == 0 and physics.converged and physics.stats["status"] == 0
 
 
+def test_split_bound_options():
+  """split_depth 6 and deep_splits 6 by default; a step that fails takes 2^3 substeps freely
+  and at most deep_splits more (core/ost_step.h OST_SPLIT_FREE), whatever split_depth: with one
+  Newton iterate the box's first step fails at every level down to 3, and some deeper."""
+  physics = ostrich.Physics.from_xml_path(model_path("box_plane.xml"))
+  assert physics.options["split_depth"] == 6 and physics.options["deep_splits"] == 6
+  with pytest.raises(ostrich.OstrichError, match="deep_splits must be in"):
+    physics.set_options(deep_splits=-1)
+  for deep in (0, 2):
+    physics.reset()
+    physics.set_options(newton_iter=1, split_depth=10, deep_splits=deep)
+    with pytest.warns(ostrich.NotConvergedWarning):
+      physics.step()
+    substeps = physics.stats["substeps"]
+    assert substeps == 8 if deep == 0 else 8 < substeps <= 8 + deep
+
+
 
 def test_cold_retry_option_and_counts():
   """The planar legs of tests/models at h = 0.07 s under the controls of test_ost_step.c's
