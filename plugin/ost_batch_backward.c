@@ -88,7 +88,7 @@ static int adjointLanes(ostBatch* b, int seg, int nlane_max, int nparam, ostAdjo
   // the rollout's own checkpoints, if it kept them at this interval: no replay to make them
   int kept = b->kept_every > 0 && (b->kept_every < T ? b->kept_every : T) == seg;
   A->nckpt = kept ? 0 : A->nseg;
-  A->rec_cap = OST_RECORDS_PER_STEP * seg + OST_RECORDS_EXTRA;
+  A->rec_cap = OST_RECORDS_PER_STEP * seg + OST_RECORDS_EXTRA + b->set.deep_splits;
   A->world_stride = b->L.stride;
   A->lane_stride = b->L.lane_stride;
   A->jac_size = ostd_jacWorkSize(&b->model, b->L.nrow_max);

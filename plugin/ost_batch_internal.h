@@ -30,8 +30,8 @@
 // cancel what they share). On the CPU a world's records stay on its thread.
 #define OST_CUDA_JAC_THREADS 1
 
-// substeps a backward segment of S steps may record: 2 S + 8 (a step split once takes 2, a
-// step split three levels deep 8)
+// substeps a backward segment of S steps may record: 2 S + 8 + deep_splits (a step split once
+// takes 2, a step split to its bound 8 + deep_splits: core/ost_step.h OST_SPLIT_FREE)
 #define OST_RECORDS_PER_STEP 2
 #define OST_RECORDS_EXTRA 8
 

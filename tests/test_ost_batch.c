@@ -401,10 +401,11 @@ START_TEST(test_batchBackwardEqualsTape) {
 END_TEST
 
 
-// the backward pass records at most 2 S + 8 substeps per segment of S steps: with split_tol 0
-// every step splits to split_depth (3 here: 8 substeps); segments of one step hold them and
-// give the tape's gradients, segments of two steps (16 > 12) overflow and say so (NaN gradients,
-// OST_OVERFLOW), and the forward rollout is the same either way
+// the backward pass records at most 2 S + 8 + deep_splits substeps per segment of S steps:
+// with split_tol 0 every step splits to split_depth (3 here: 8 substeps); with deep_splits 0
+// segments of one step hold them and give the tape's gradients, segments of two steps (16 > 12)
+// overflow and say so (NaN gradients, OST_OVERFLOW), and the forward rollout is the same either
+// way
 START_TEST(test_batchBackwardRecordCapacity) {
   ost_fixtureSetup();
   char path[1024], *xml = NULL;
@@ -419,7 +420,8 @@ START_TEST(test_batchBackwardRecordCapacity) {
   fclose(f);
   char* at = strstr(xml, "<custom>") + strlen("<custom>");
   const char* add = "<numeric name=\"ostrich/split_tol\" data=\"0\"/>"
-                    "<numeric name=\"ostrich/split_depth\" data=\"3\"/>";
+                    "<numeric name=\"ostrich/split_depth\" data=\"3\"/>"
+                    "<numeric name=\"ostrich/deep_splits\" data=\"0\"/>";
   memmove(at + strlen(add), at, strlen(at) + 1);
   memcpy(at, add, strlen(add));
   at = strstr(xml, "file=\"") + strlen("file=\"");  // the include, from the fixture's /tmp
