@@ -431,7 +431,9 @@ OSTAPI const char* ost_tapeError(const ostTape* t);
 // (OST_OVERFLOW, OST_NAN, OST_CHOL_FAIL) keeps the state it had before that step and is not
 // stepped again until its state is set, and it never disturbs its neighbours. The `cpu` and
 // `cuda` devices run the same per-world code (core/ost_batch.h) and give the same results.
-// Options come from the model (ost_readOptions); the model must pass ost_checkNative.
+// Options come from the model (ost_readOptions), except that a batch splits a step past 3
+// levels only where the model sets ostrich/deep_splits (else 0: on the GPU a world that keeps
+// failing holds its warp); the model must pass ost_checkNative.
 typedef struct ostBatch_ ostBatch;
 
 // Create nworld worlds of m at qpos0, at rest, controls 0, on device "cpu" (all cores),
@@ -497,7 +499,7 @@ OSTAPI int ost_batchKeepCheckpoints(ostBatch* b, int every);
 // segment is replayed once more recording its substeps, and each substep's exact Jacobian (dual
 // numbers; on cuda its columns spread over several threads) gives the implicit-function-theorem
 // update (core/ost_batch_adjoint.h). Memory per lane: the checkpoints and one segment's records; a
-// segment of S steps records at most 2 S + 8 substeps. A world whose rollout failed, whose
+// segment of S steps records at most 2 S + 8 + deep_splits substeps. A world whose rollout failed, whose
 // segment records more substeps (OST_OVERFLOW), whose Jacobian is singular (OST_NAN) or whose
 // rollout has a step that did not converge (OST_NOT_CONVERGED) or kept part of an initial
 // violation (OST_DEPENETRATED) gets NaN gradients and that bit: the implicit function theorem

@@ -401,13 +401,9 @@ START_TEST(test_batchBackwardEqualsTape) {
 END_TEST
 
 
-// the backward pass records at most 2 S + 8 + deep_splits substeps per segment of S steps:
-// with split_tol 0 every step splits to split_depth (3 here: 8 substeps); with deep_splits 0
-// segments of one step hold them and give the tape's gradients, segments of two steps (16 > 12)
-// overflow and say so (NaN gradients, OST_OVERFLOW), and the forward rollout is the same either
-// way
-START_TEST(test_batchBackwardRecordCapacity) {
-  ost_fixtureSetup();
+// robot_box.xml with `add` (custom numerics) at the start of its <custom>, loaded from the
+// fixture's folder (its include made relative to the models)
+static mjModel* robotBoxWith(const char* add) {
   char path[1024], *xml = NULL;
   snprintf(path, sizeof(path), "%s/robot_box.xml", OST_MODEL_DIR);
   FILE* f = fopen(path, "rb");
@@ -415,13 +411,10 @@ START_TEST(test_batchBackwardRecordCapacity) {
   fseek(f, 0, SEEK_END);
   long n = ftell(f);
   fseek(f, 0, SEEK_SET);
-  xml = calloc(n + 2200, 1);
+  xml = calloc(n + strlen(add) + 1200, 1);
   ck_assert_int_eq((long)fread(xml, 1, n, f), n);
   fclose(f);
   char* at = strstr(xml, "<custom>") + strlen("<custom>");
-  const char* add = "<numeric name=\"ostrich/split_tol\" data=\"0\"/>"
-                    "<numeric name=\"ostrich/split_depth\" data=\"3\"/>"
-                    "<numeric name=\"ostrich/deep_splits\" data=\"0\"/>";
   memmove(at + strlen(add), at, strlen(at) + 1);
   memcpy(at, add, strlen(add));
   at = strstr(xml, "file=\"") + strlen("file=\"");  // the include, from the fixture's /tmp
@@ -431,6 +424,62 @@ START_TEST(test_batchBackwardRecordCapacity) {
   memcpy(at, dir, strlen(dir));
   mjModel* m = ost_fixtureLoadString(xml);
   free(xml);
+  return m;
+}
+
+
+// a batch splits a step past 3 levels only where the model sets ostrich/deep_splits: with
+// split_tol 0 every step splits as far as allowed; without the numeric the batch equals
+// ost_step at deep_splits 0 bit for bit (8 substeps, where ost_step's default takes 14), with
+// it ost_step at its value
+START_TEST(test_batchDeepSplits) {
+  ost_fixtureSetup();
+  const char* adds[2] = {"<numeric name=\"ostrich/split_tol\" data=\"0\"/>",
+                         "<numeric name=\"ostrich/split_tol\" data=\"0\"/>"
+                         "<numeric name=\"ostrich/deep_splits\" data=\"2\"/>"};
+  for (int c = 0; c < 2; c++) {
+    mjModel* m = robotBoxWith(adds[c]);
+    char err[1000];
+    ostBatch* b = ost_batchCreate(m, 1, "cpu:1", err, sizeof(err));
+    ck_assert_msg(b != NULL, "%s", err);
+    mjtNum ctrl[3] = {3, 3.2, 3}, qpos[64], qvel[64];
+    ck_assert_int_eq(ost_batchSetCtrl(b, ctrl), OST_OK);
+    for (int deep = 0; deep <= 6; deep += 2) {
+      mjData* d = mj_makeData(m);
+      ostOptions o;
+      ck_assert_int_eq(ost_readOptions(m, &o, NULL, 0), OST_OK);
+      o.geometry = OST_GEOMETRY_NATIVE;
+      o.deep_splits = deep;
+      ck_assert_int_eq(ost_setOptions(m, d, &o), OST_OK);
+      for (int a = 0; a < m->nu; a++) d->ctrl[a] = ctrl[a];
+      ost_step(m, d);
+      ck_assert_int_eq(ost_stats(d)->substeps, 8 + deep);
+      ck_assert_int_eq(ost_batchSetState(b, NULL, NULL), OST_OK);
+      ck_assert_int_eq(ost_batchStep(b), OST_OK);
+      ck_assert_int_eq(ost_batchGetState(b, qpos, qvel), OST_OK);
+      double diff = fmax(maxDiff(qpos, d->qpos, m->nq), maxDiff(qvel, d->qvel, m->nv));
+      int same = deep == (c ? 2 : 0);
+      ck_assert_msg(same ? diff == 0 : diff > 0, "model %d, ost_step at deep_splits %d: %g", c,
+                    deep, diff);
+      ost_deleteData(d);
+    }
+    ost_batchDelete(b);
+    mj_deleteModel(m);
+  }
+}
+END_TEST
+
+
+// the backward pass records at most 2 S + 8 + deep_splits substeps per segment of S steps:
+// with split_tol 0 every step splits to split_depth (3 here: 8 substeps); with deep_splits 0
+// segments of one step hold them and give the tape's gradients, segments of two steps (16 > 12)
+// overflow and say so (NaN gradients, OST_OVERFLOW), and the forward rollout is the same either
+// way
+START_TEST(test_batchBackwardRecordCapacity) {
+  ost_fixtureSetup();
+  mjModel* m = robotBoxWith("<numeric name=\"ostrich/split_tol\" data=\"0\"/>"
+                             "<numeric name=\"ostrich/split_depth\" data=\"3\"/>"
+                             "<numeric name=\"ostrich/deep_splits\" data=\"0\"/>");
   int T = 4, nv = m->nv, nu = m->nu;
   mjtNum ctrl[4 * 3], gq[5 * 9] = {0}, gctrl[4 * 3], gq0[9], gu0[9], tc[4 * 3], tq0[9], tu0[9];
   for (int i = 0; i < T * nu; i++) ctrl[i] = 2;
@@ -657,6 +706,7 @@ static Suite* suite(void) {
   tcase_add_test(tc, test_batchBackward);
   tcase_add_test(tc, test_batchBackwardEqualsTape);
   tcase_add_test(tc, test_batchBackwardRecordCapacity);
+  tcase_add_test(tc, test_batchDeepSplits);
   tcase_add_test(tc, test_batchErrors);
   tcase_add_test(tc, test_batchActivations);
   suite_add_tcase(s, tc);
