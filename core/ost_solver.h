@@ -79,6 +79,25 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNu
 // answers (median relative residual 0.2) serve a falling cloth's Newton loop, and 1e-4 made its
 // steps 2.5 times dearer and grid2pin's 1.5 times, at the rope's and the loop's speed
 #define OST_DIRECT_FALLBACK 1e-2
+// a Krylov solve of an island above OST_DIRECT_MAX rows that stopped at its budget with a
+// relative residual (Jacobi norm) above OST_KRYLOV_FAILED made no progress (GMRES's restarts
+// stagnate). Inexact Newton converges at about the rate of its inner solves, so such answers
+// stall the loop: when a Newton iterate after one reduced the merit by less than
+// OST_KRYLOV_STALL (osti_krylovStall), a host world solves such islands directly for the rest of
+// the loop wherever its dense arrays hold them and the factor costs at most OST_STALL_COST times
+// the affordable one (OST_DIRECT_KRYLOV). MuJoCo's active_adhesion sample (64 frictionless
+// spheres in a crate: one island of 280-370 rows on 3-dof bodies, factors 1.1-1.7 times the
+// affordable) under random controls: GMRES cut at 32 iterations left relative residuals of
+// 0.99-1.4, and steps ended at residuals of 1e-9 to 4e-6 m/s after 1,000-1,400 Newton iterates
+// and 14 substeps (22 of 500 over 1 s at h); with the direct solves none, at h and 5 h. Tried
+// and dropped: four times the Krylov budget instead (still 22 of 500, and a stalled hammock step
+// at 5 h took 40 s), factors at any cost (a hammock step whose islands of 600-735 rows stall
+// without converging: 10 s), and factors on the first failure rather than after a stall
+// (grid2pin, whose 510-564-row islands stall for an iterate or two and then converge: twice the
+// time)
+#define OST_KRYLOV_FAILED 0.5
+#define OST_KRYLOV_STALL 0.5
+#define OST_STALL_COST 4
 // a direct answer of an island above OST_DIRECT_MAX rows (dense or envelope factor) is used only
 // if its relative residual (Jacobi norm) is at most this; else the island goes to PCR or GMRES.
 // Stable factors measured 1e-15 to 1e-10; nearly singular islands 1e-6 to 1 (dense, pivoted)
@@ -222,6 +241,13 @@ typedef struct ostWorld_ {        // one world: sizes and pointers into one allo
                                   // rows that Ad_large holds stopped at pcr_iter in this Newton
                                   // loop: such islands are then solved directly
                                   // (osti_schurSolveSet)
+  int    krylov_failed;           // bit 1: a Krylov solve of an island that Ad_large holds
+                                  // (factor within OST_STALL_COST) made no progress
+                                  // (OST_KRYLOV_FAILED) in this Newton iterate; bit 2: an
+                                  // iterate after such a solve reduced the merit by less than
+                                  // OST_KRYLOV_STALL, so such solves are redone directly for the
+                                  // rest of the loop; bit 4: one was, so such islands skip
+                                  // Krylov (osti_schurSolveSet, osti_krylovStall)
 #define X(type, name, r, c) type* name;
   OST_WORLD_ARRAYS(X)
 #undef X
@@ -291,6 +317,7 @@ OST_HD void ostu_worldInitFor(ostWorld* w, void* buf, int nv, int ncol, int nrow
   w->Ad_large = w->Yt_large = NULL;
   w->Apiv_large = NULL;
   w->direct_large = 0;
+  w->krylov_failed = 0;
 #define X(type, name, r, c)                                         \
   w->name = (size_t)(r) * (size_t)(c) != 0 ? (type*)p : NULL;       \
   p += (((size_t)(r) * (c) * sizeof(type) + 63) / 64) * 64;
@@ -1604,13 +1631,14 @@ OST_HD int osti_directSet(ostWorld* w, const ostRowSet* set, ostNum* x, const os
 #endif
 
 
-// 1 if the dense factor of a set costs at most OST_DIRECT_KRYLOV Krylov iterations on it: n^3 / 3
-// flops (a Cholesky; the LU of a sliding coupling twice that) against about 4 times the sum of
-// the rows' pattern sizes per iteration (a product with J, one with J' and a tree solve)
-OST_HD int osti_directAffordable(const ostWorld* w, const ostRowSet* set) {
+// 1 if the dense factor of a set costs at most `scale` times OST_DIRECT_KRYLOV Krylov iterations
+// on it: n^3 / 3 flops (a Cholesky; the LU of a sliding coupling twice that) against about 4
+// times the sum of the rows' pattern sizes per iteration (a product with J, one with J' and a
+// tree solve)
+OST_HD int osti_directAffordable(const ostWorld* w, const ostRowSet* set, double scale) {
   double krylov = 0, n = set->n;
   for (int l = 0; l < set->n; l++) krylov += 4.0 * w->Jnnz[OST_SET_ROW(set, l)];
-  return n * n * n / 3 <= OST_DIRECT_KRYLOV * krylov;
+  return n * n * n / 3 <= scale * OST_DIRECT_KRYLOV * krylov;
 }
 
 
@@ -1690,7 +1718,12 @@ OST_HD int osti_decoupledSolve(ostWorld* w, const ostRowSet* set, ostNum* x, con
 OST_HD int osti_schurSolveSet(ostWorld* w, const ostRowSet* set, ostNum* x, const ostNum* b,
                               const ostSolverOptions* opt) {
   int small = set->n <= OST_DIRECT_MAX;
-  int dense = 0;  // a direct solve may be made (set below in host and GPU double builds)
+  int held = 0;   // the world's dense arrays hold the set and its factor costs at most
+                  // OST_STALL_COST times the affordable one: a direct solve may be made once
+                  // Krylov answers stalled Newton (set below in host and GPU double builds)
+#ifndef OST_NUM_TYPE
+  int dense = 0;  // and the factor is affordable: one may be made whenever Krylov falls short
+#endif
 #if OST_ROW_CACHE
   if (!small && w->env && w->env->decouple && !w->env->reducing) {
     int it = osti_decoupledSolve(w, set, x, b, opt);
@@ -1706,10 +1739,10 @@ OST_HD int osti_schurSolveSet(ostWorld* w, const ostRowSet* set, ostNum* x, cons
   // directly: up to OST_DIRECT_MAX rows always; up to the world's dense rows, where the factor
   // is affordable, once a Krylov solve of a larger island stopped at its budget in this Newton
   // loop (direct_large, below)
-  dense = w->dof_parent
-          && (small ? w->Ad != NULL
-                    : w->Ad_large && set->n <= w->ndense_large && osti_directAffordable(w, set));
-  if (dense && (small || w->direct_large)) {
+  held = w->dof_parent && (small ? w->Ad != NULL : w->Ad_large && set->n <= w->ndense_large)
+         && (small || osti_directAffordable(w, set, OST_STALL_COST));
+  dense = held && (small || osti_directAffordable(w, set, 1));
+  if ((dense && (small || w->direct_large)) || (held && (w->krylov_failed & 4))) {
     int it = osti_directLargeSet(w, set, x, b);
     if (it) {
       return it;
@@ -1719,16 +1752,21 @@ OST_HD int osti_schurSolveSet(ostWorld* w, const ostRowSet* set, ostNum* x, cons
   int it = osti_hasSlidingCouplingSet(w, set)
                ? osti_gmresSet(w, set, x, b, opt->pcr_iter, opt->pcr_tol)
                : osti_pcrSet(w, set, x, b, opt->pcr_iter, opt->pcr_tol);
-  if (!small && it >= opt->pcr_iter && (dense || w->env)) {
+  if (!small && it >= opt->pcr_iter && (held || w->env)) {
     // the Krylov solve ran out of budget: its relative residual |A x - b| / |b| in the Jacobi
     // preconditioner's norm (that of PCR) decides whether it failed
     ostNum rr, bb;
     osti_residualSet(w, set, x, b, w->pcr + (size_t)w->nrow_max, &rr, &bb);
 #ifndef OST_NUM_TYPE
-    if (dense && rr > OST_DIRECT_FALLBACK * OST_DIRECT_FALLBACK * bb) {
+    int failed = held && rr > OST_KRYLOV_FAILED * OST_KRYLOV_FAILED * bb;
+    w->krylov_failed |= failed;
+    if ((dense && rr > OST_DIRECT_FALLBACK * OST_DIRECT_FALLBACK * bb)
+        || (failed && (w->krylov_failed & 2))) {
       // inexact enough to leave Newton converging linearly: this island and the loop's later
-      // large ones go direct
-      w->direct_large = 1;
+      // large ones go direct (affordable ones; once Newton stalled on answers that made no
+      // progress, any within OST_STALL_COST)
+      w->direct_large |= dense;
+      w->krylov_failed |= failed ? 4 : 0;
       ostNum* keep = w->pcr + (size_t)5 * w->nrow_max;  // the Krylov answer, if the factor fails
       for (int l = 0; l < set->n; l++) keep[l] = x[l];
       int itd = osti_directLargeSet(w, set, x, b);
@@ -1745,6 +1783,17 @@ OST_HD int osti_schurSolveSet(ostWorld* w, const ostRowSet* set, ostNum* x, cons
 #endif
   }
   return it;
+}
+
+
+// after a Newton iterate with merit `merit` (the iterate before it: merit_prev): where a Krylov
+// solve of this iterate made no progress (krylov_failed bit 1) and the merit fell by less than
+// OST_KRYLOV_STALL, such solves are redone directly for the rest of the loop (bit 2; bit 4, set
+// by osti_schurSolveSet, stays)
+OST_HD void osti_krylovStall(ostWorld* w, ostNum merit, ostNum merit_prev) {
+  if (w->krylov_failed & 1) {
+    w->krylov_failed = (w->krylov_failed & 6) | (merit > OST_KRYLOV_STALL * merit_prev ? 2 : 0);
+  }
 }
 
 
@@ -2006,6 +2055,7 @@ OST_HD void osti_startStep(ostWorld* w, const ostNum* u, int warm) {
   w->nrow_prev = warm ? w->nrow_warm : 0;
   w->prev_jac = 0;  // the last step's rows carry multipliers, not this step's Jacobians
   w->direct_large = 0;
+  w->krylov_failed = 0;
   for (int i = 0; i < w->nrow_prev; i++) {
     w->rows_prev[i] = w->rows_warm[i];
     w->lambda_prev[i] = w->lambda_warm[i];

@@ -327,7 +327,7 @@ OST_HD int osti_relaxStart(ostWorld* w, const ostSolverOptions* so, ostGeometryF
 OST_HD int osti_newton(ostWorld* w, const ostSolverOptions* so, int linesearch, ostGeometryFn geom,
                        void* ctx, ostNum* merit_k, int* nrow_k, int nk, ostNewtonStats* st) {
   int nv = w->nv, status = 0, best_k = -1, k, nrow_prev0 = w->nrow_prev;
-  ostNum best = HUGE_VAL, merit = 0;
+  ostNum best = HUGE_VAL, merit = 0, merit_prev = HUGE_VAL;
   st->iterates = 0;
   st->best = -1;
   st->pcr = 0;
@@ -383,6 +383,10 @@ OST_HD int osti_newton(ostWorld* w, const ostSolverOptions* so, int linesearch, 
       st->nonfinite = 1;
       break;
     }
+    if (k > 0) {
+      osti_krylovStall(w, merit, merit_prev);
+    }
+    merit_prev = merit;
 #if OST_GEO_HOST
     if (w->geo) {
       osti_geoTrack(w->geo, k, merit);

@@ -212,6 +212,80 @@ START_TEST(test_directAfterShortKrylov) {
 END_TEST
 
 
+// an island of 330 rows on 64 dofs whose dense factor costs 1.1 times OST_DIRECT_KRYLOV Krylov
+// iterations (n^3 / 3 against 4 nnz(J) each: not affordable, within OST_STALL_COST), solved
+// with a Krylov budget of one iteration: that answer makes no progress (relative residual above
+// OST_KRYLOV_FAILED), which a host world marks (krylov_failed bit 1) and keeps, as before. Once
+// a Newton iterate after such a solve reduced the merit by less than OST_KRYLOV_STALL
+// (osti_krylovStall), the host world redoes such solves directly and then skips Krylov for the
+// rest of the loop; a new loop starts over. A batch's world, without the dense arrays, keeps its
+// Krylov answers and never marks them
+START_TEST(test_krylovStallDirect) {
+  ostSolverOptions opt = {0};
+  opt.pcr_iter = 1;
+  opt.pcr_tol = 1e-12;
+  enum { nv = 64, ncon = 110, n = 3 * ncon };
+  static double b[n], x[n], xg[n], r[n];
+  for (int host = 0; host <= 1; host++) {
+    envWorld ew;
+    makeWorldSized(&ew, nv, ncon, 0, 1, host, 7);
+    ostWorld* w = &ew.w;
+    w->env = NULL;
+    ostRowSet set = osti_wholeSet(w);
+    ck_assert_int_eq(osti_directAffordable(w, &set, 1), 0);
+    ck_assert_int_eq(osti_directAffordable(w, &set, OST_STALL_COST), 1);
+    for (int i = 0; i < n; i++) b[i] = sin(1.0 + i) * (w->c[i] > 1 ? 1e12 : 1);
+    osti_gmres(w, xg, b, 4000, 1e-14);
+    double rr, bb;
+
+    // the Krylov answer, kept (and marked as no progress by a host world)
+    for (int i = 0; i < n; i++) x[i] = 0;
+    int it = osti_schurSolveSet(w, &set, x, b, &opt);
+    osti_residualSet(w, &set, x, b, r, &rr, &bb);
+    printf("%s world, an island of %d rows above the affordable factor: a one-iteration Krylov "
+           "answer's relative residual %.3g\n", host ? "host" : "batch", n, sqrt(rr / bb));
+    ck_assert_int_eq(it, opt.pcr_iter);
+    ck_assert_double_gt(rr, OST_KRYLOV_FAILED * OST_KRYLOV_FAILED * bb);
+    ck_assert_int_eq(w->krylov_failed, host);
+    ck_assert_int_eq(w->direct_large, 0);
+
+    // an iterate that still more than halved the merit changes nothing; one that did not does
+    osti_krylovStall(w, 0.4, 1.0);
+    ck_assert_int_eq(w->krylov_failed, 0);
+    for (int i = 0; i < n; i++) x[i] = 0;
+    osti_schurSolveSet(w, &set, x, b, &opt);
+    osti_krylovStall(w, 0.9, 1.0);
+    ck_assert_int_eq(w->krylov_failed, host ? 2 : 0);
+
+    // the next solve: the Krylov budget, then (host) a direct solve, equal to GMRES run to
+    // 1e-14 (1e-9 leaves room for the conditioning)
+    for (int i = 0; i < n; i++) x[i] = 0;
+    it = osti_schurSolveSet(w, &set, x, b, &opt);
+    double err = relDiff(x, xg, n);
+    printf("  after a stalled iterate: %d iterations, %.3g relative to GMRES at 1e-14\n", it, err);
+    ck_assert_int_eq(w->direct_large, 0);  // the affordable rule is not widened
+    if (host) {
+      ck_assert_int_eq(it, opt.pcr_iter + 1);
+      ck_assert_double_lt(err, 1e-9);
+      osti_krylovStall(w, 0.1, 1.0);  // progress keeps the direct solves for the loop
+      ck_assert_int_eq(w->krylov_failed, 2 | 4);
+      for (int i = 0; i < n; i++) x[i] = 0;
+      ck_assert_int_eq(osti_schurSolveSet(w, &set, x, b, &opt), 1);  // direct, Krylov skipped
+      ck_assert_double_lt(relDiff(x, xg, n), 1e-9);
+    } else {
+      ck_assert_int_eq(it, opt.pcr_iter);
+      ck_assert_double_gt(err, OST_DIRECT_FALLBACK);
+      ck_assert_int_eq(w->krylov_failed, 0);
+    }
+    double u[nv] = {0};
+    osti_startStep(w, u, 0);
+    ck_assert_int_eq(w->krylov_failed, 0);
+    freeWorld(&ew);
+  }
+}
+END_TEST
+
+
 // contacts that outnumber the dofs they hold (120 rows on 24 dofs), nearly rigid (normals' c of
 // 1e-9 of their diagonal), every third sliding: A is nearly singular and not symmetric, and the
 // envelope's LU, which does not pivot, answers some of these systems with residuals far above
@@ -415,9 +489,10 @@ END_TEST
 // apart: every neighbour pair sits inside the 1 cm look-ahead as an open contact, 60 % of its
 // island's rows) and the humanoid falling into it, 40 steps at its own h from qpos0, with and
 // without decouple_open. With the open contacts solved alone every step converges (the default
-// leaves one unconverged, a warning here, whose residual moves its torso by a millimetre), and
-// the option's run takes at most two thirds of the Newton iterates (a regression baseline:
-// measured 401 against 778)
+// may leave one unconverged, a warning here, whose residual moves its torso by a millimetre), and
+// the option's run takes at most three quarters of the Newton iterates (a regression baseline:
+// measured 401 against 778, and against 584 since loops that stall on Krylov answers that
+// make no progress solve their islands directly, OST_KRYLOV_STALL)
 START_TEST(test_hammockOpenContactsAlone) {
   ost_fixtureSetup();
   ost_fixtureAllowWarnings(1);  // the sample's nconmax 100 is below its look-ahead's contacts
@@ -443,12 +518,60 @@ START_TEST(test_hammockOpenContactsAlone) {
   const ostEnvWork* e = &ost_context(m, d1)->env;
   double z1 = d1->xpos[3 * torso + 2], z2 = d2->xpos[3 * torso + 2];
   printf("hammock, %d steps: Newton iterates %ld / %ld with / without decouple_open (%d reduced "
-         "solves); torso height %.6f / %.6f m\n", n, newton1, newton2, e->reduced, z1, z2);
+         "solves); torso height %.6f / %.6f m; unconverged steps %ld / %ld\n", n, newton1,
+         newton2, e->reduced, z1, z2, ost_totals(d1)->unconverged, ost_totals(d2)->unconverged);
   ck_assert_int_gt(e->reduced, 0);
   ck_assert_int_eq(ost_context(m, d2)->env.reduced, 0);
-  ck_assert_int_lt(3 * newton1, 2 * newton2);
+  ck_assert_int_lt(4 * newton1, 3 * newton2);
   mj_deleteData(d1);
   mj_deleteData(d2);
+  mj_deleteModel(m);
+}
+END_TEST
+
+
+// MuJoCo's active_adhesion sample under random controls (drawn from a fixed seed, uniform in
+// each ctrlrange, held 0.1 s): its 64 frictionless spheres lie in a crate as one island of about
+// 318 rows (3 dofs per sphere, so its dense factor counts as dearer than OST_DIRECT_KRYLOV Krylov
+// iterations), whose GMRES answers stagnate at a relative residual near 1 once the adhesive
+// sphere presses into the pile. Every step of 0.35 s at its own h must converge: before Newton
+// loops that stall on such answers solved the island directly (OST_KRYLOV_STALL), steps 169 and
+// 170 ended at residuals of 4e-6 and 6e-6 m/s after 1,300 Newton iterates each (14 substeps)
+START_TEST(test_adhesionPileConverges) {
+  ost_fixtureSetup();
+  char err[500];
+  mjModel* m = mj_loadXML("/usr/share/mujoco/model/adhesion/active_adhesion.xml", NULL, err,
+                          sizeof(err));
+  ck_assert_msg(m != NULL, "%s", err);
+  mjData* d = mj_makeData(m);
+  enum { nblock = 4 };
+  double ctrl[nblock][8];
+  ck_assert_int_le(m->nu, 8);
+  unsigned long long state = 1;  // splitmix64, as compare models' random controls
+  for (int i = 0; i < nblock; i++) {
+    for (int j = 0; j < m->nu; j++) {
+      unsigned long long z = (state += 0x9E3779B97F4A7C15ULL);
+      z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+      z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+      z ^= z >> 31;
+      int lim = m->actuator_ctrllimited[j];
+      double lo = lim ? m->actuator_ctrlrange[2 * j] : -1, hi = lim ? m->actuator_ctrlrange[2 * j + 1] : 1;
+      ctrl[i][j] = lo + (hi - lo) * ((double)(z >> 11) * 0x1.0p-53);
+    }
+  }
+  int n = 175, worst_newton = 0;
+  for (int k = 0; k < n; k++) {
+    int block = (int)floor((d->time + m->opt.timestep / 8) / 0.1);
+    for (int j = 0; j < m->nu; j++) d->ctrl[j] = ctrl[block < nblock ? block : nblock - 1][j];
+    ck_assert_msg(ost_step(m, d) == OST_OK, "step %d: %s (residual %.3g m/s)", k + 1,
+                  ost_lastError(d), ost_stats(d)->residual);
+    worst_newton = ost_stats(d)->newton_iter > worst_newton ? ost_stats(d)->newton_iter
+                                                            : worst_newton;
+  }
+  printf("active_adhesion, %d steps of random controls: all converged, at most %d Newton "
+         "iterates in a step, worst residual %.3g m/s\n", n, worst_newton,
+         ost_totals(d)->worst_residual);
+  mj_deleteData(d);
   mj_deleteModel(m);
 }
 END_TEST
@@ -492,11 +615,13 @@ int main(void) {
   tcase_add_test(tc, test_envelopeMatchesGmres);
   tcase_add_test(tc, test_envelopeRefuses);
   tcase_add_test(tc, test_directAfterShortKrylov);
+  tcase_add_test(tc, test_krylovStallDirect);
   tcase_add_test(tc, test_unstableFactorRejected);
   tcase_add_test(tc, test_keptFactorStaleAfterChange);
   tcase_add_test(tc, test_decoupledRowsAlone);
   tcase_add_test(tc, test_grid2pinWithAndWithout);
   tcase_add_test(tc, test_hammockOpenContactsAlone);
+  tcase_add_test(tc, test_adhesionPileConverges);
   tcase_add_test(tc, test_grownCapacitySameStep);
   tcase_set_timeout(tc, 120);
   suite_add_tcase(s, tc);
