@@ -89,10 +89,11 @@ OST_STATIC_ASSERT(sizeof(ostSolverOptions) == 4 * sizeof(int) + 5 * sizeof(ostNu
 // spheres in a crate: one island of 280-370 rows on 3-dof bodies, factors 1.1-1.7 times the
 // affordable) under random controls: GMRES cut at 32 iterations left relative residuals of
 // 0.99-1.4, and steps ended at residuals of 1e-9 to 4e-6 m/s after 1,000-1,400 Newton iterates
-// and 14 substeps (22 of 500 over 1 s at h); with the direct solves none, at h and 5 h. Tried
-// and dropped: four times the Krylov budget instead (still 22 of 500, and a stalled hammock step
-// at 5 h took 40 s), factors at any cost (a hammock step whose islands of 600-735 rows stall
-// without converging: 10 s), and factors on the first failure rather than after a stall
+// and 14 substeps (17 of the 476 steps that 60 s of wall time reached of 1 s at h, seed 1);
+// with the direct solves none, at h and 5 h. Tried and dropped: four times the Krylov budget
+// instead (22 of 500 still unconverged, and stalled hammock steps at 5 h took about 20 s each),
+// factors at any cost (hammock steps whose islands of 600-735 rows stall without converging:
+// about 13 s each), and factors on the first failure rather than after a stall
 // (grid2pin, whose 510-564-row islands stall for an iterate or two and then converge: twice the
 // time)
 #define OST_KRYLOV_FAILED 0.5
