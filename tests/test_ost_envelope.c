@@ -13,6 +13,7 @@
 #include <stdlib.h>
 
 #include "fixture.h"
+#include "ost_cli_util.h"
 #include "ost_internal.h"
 
 enum { NV = 240, NCON = 50, N = 3 * NCON };  // 60 chains of 4 dofs; 150 rows (> OST_DIRECT_MAX)
@@ -547,16 +548,13 @@ START_TEST(test_adhesionPileConverges) {
   enum { nblock = 4 };
   double ctrl[nblock][8];
   ck_assert_int_le(m->nu, 8);
-  unsigned long long state = 1;  // splitmix64, as compare models' random controls
+  cliRng rng;  // the stream and draws of compare models' random controls, seed 1
+  cli_rngSeed(&rng, 1);
   for (int i = 0; i < nblock; i++) {
     for (int j = 0; j < m->nu; j++) {
-      unsigned long long z = (state += 0x9E3779B97F4A7C15ULL);
-      z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
-      z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
-      z ^= z >> 31;
       int lim = m->actuator_ctrllimited[j];
-      double lo = lim ? m->actuator_ctrlrange[2 * j] : -1, hi = lim ? m->actuator_ctrlrange[2 * j + 1] : 1;
-      ctrl[i][j] = lo + (hi - lo) * ((double)(z >> 11) * 0x1.0p-53);
+      ctrl[i][j] = cli_uniform(&rng, lim ? m->actuator_ctrlrange[2 * j] : -1,
+                               lim ? m->actuator_ctrlrange[2 * j + 1] : 1);
     }
   }
   int n = 175, worst_newton = 0;
