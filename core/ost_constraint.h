@@ -82,6 +82,21 @@ OST_HD ostNum osti_fb(ostNum a, ostNum b, ostNum eps, ostNum* fa, ostNum* fb) {
 }
 
 
+// 1 if a frictionless contact's normal row moves its degrees of freedom beyond rounding: jn2 =
+// |J_n|^2 above OST_IMMOBILE times rel2 = |J_p2 - J_p1|^2, the contact points' relative motion in
+// all three directions, both summed over the same dofs. Two spheres centred on the pivots of two
+// hinged links (the finger bases of a hand joined by an explicit condim-1 pair) keep their gap
+// whatever the joints do, and under a shared parent (the wrist) J_n is rounding, 1e-16 of J_p:
+// its FB row, of scale k = h^2 J_n Mt^-1 J_n' ~ 1e-36 m/N, left the force free and Newton drove
+// it to 1e19 N within an iterate. Such a contact can carry no force and gets no row (a contact
+// with friction compares with its tangent rows instead: osti_contactImmobile). The bound stays
+// far below any physical ratio (see osti_contactImmobile).
+#define OST_IMMOBILE 1e-14
+OST_HD int osti_normalMoves(ostNum jn2, ostNum rel2) {
+  return jn2 > OST_IMMOBILE * rel2;
+}
+
+
 // rows n, t1, t2 of a contact from the translational Jacobians j1, j2 (3 x nv each) of its two
 // bodies at the contact point: frame rows times (j2 - j1), so J_n u > 0 separates. t1, t2 may be
 // NULL (frictionless). Returns 0 if the contact moves no degree of freedom. Shared by both

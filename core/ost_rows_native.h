@@ -43,7 +43,7 @@ OST_HD void osti_contactKey(const ostModel* m, const ostKin* k, int i, ostNum ke
 // the rows of contact i into J (rows apart by nv): the normal, then its nf friction rows of the
 // given slots and scales (osti_frictionSlots): frame rows times (J(body2) - J(body1)) at the
 // contact point, rotational Jacobians for torsion and rolling; returns 0 if the contact moves
-// no degree of freedom
+// no degree of freedom (a frictionless one: beyond rounding, osti_normalMoves)
 OST_HD int osti_contactJacobian(const ostModel* m, ostKin* k, int i, int nf, const int* slot,
                                 const ostNum* scale, ostNum* J) {
   int nv = m->s.nv, p = k->contact_pair[i];
@@ -63,6 +63,15 @@ OST_HD int osti_contactJacobian(const ostModel* m, ostKin* k, int i, int nf, con
     ntr++;
   }
   int any = osti_contactRows(con->frame, j1, j2, nv, J, NULL, NULL);
+  if (nf == 0 && any) {
+    ostNum jn2 = 0, rel2 = 0;  // a frictionless normal that moves nothing but rounding
+    for (int j = 0; j < nv; j++) {
+      ostNum dx = j2[j] - j1[j], dy = j2[nv + j] - j1[nv + j], dz = j2[2 * nv + j] - j1[2 * nv + j];
+      jn2 += J[j] * J[j];
+      rel2 += dx * dx + dy * dy + dz * dz;
+    }
+    any = osti_normalMoves(jn2, rel2);
+  }
   osti_frictionJacobian(con->frame, j1, j2, NULL, NULL, nv, ntr, slot, scale, J + nv);
   if (nf > ntr) {
     for (int j = 0; j < 6 * nv; j++) {

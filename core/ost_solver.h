@@ -952,8 +952,8 @@ OST_HD ostNum osti_frictionDiagMax(const ostWorld* w, int i, int nf) {
 // it carries no force: its rows are held at lambda = 0 (osti_immobileRows, with k_f = h df).
 // Given their FB function, Newton would scale the force by k ~ 1e-25 m/N and drive it to 1e10 N
 // within an iterate. The bound stays far below any physical ratio: a wheel's normal against its
-// spin is I_wheel / (M r^2), 1e-5 for a light wheel under a heavy vehicle.
-#define OST_IMMOBILE 1e-14
+// spin is I_wheel / (M r^2), 1e-5 for a light wheel under a heavy vehicle (OST_IMMOBILE is
+// ost_constraint.h's, shared with the frictionless test osti_normalMoves).
 OST_HD int osti_contactImmobile(const ostWorld* w, int i, ostNum df) {
   return df > 0 && w->diag[i] < OST_IMMOBILE * df;
 }

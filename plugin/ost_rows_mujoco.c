@@ -119,12 +119,30 @@ static int chainRows(const mjModel* m, const mjtNum frame[9], const mjtNum* j1, 
 }
 
 
+// osti_normalMoves over the dofs of the chains ending at last1 and last2 (a dof the two share is
+// counted twice in both sums) of a frictionless contact's normal row J and its bodies' point
+// Jacobians j1, j2 (3 x nv each)
+static int normalMoves(const mjModel* m, const mjtNum* j1, const mjtNum* j2, const ostNum* J,
+                       int last1, int last2) {
+  int nv = m->nv, last[2] = {last1, last2};
+  mjtNum jn2 = 0, rel2 = 0;
+  for (int b = 0; b < 2; b++) {
+    for (int j = last[b]; j >= 0; j = m->dof_parentid[j]) {
+      mjtNum dx = j2[j] - j1[j], dy = j2[nv + j] - j1[nv + j], dz = j2[2 * nv + j] - j1[2 * nv + j];
+      jn2 += J[j] * J[j];
+      rel2 += dx * dx + dy * dy + dz * dz;
+    }
+  }
+  return osti_normalMoves(jn2, rel2);
+}
+
+
 // the rows of a contact between geoms g1, g2 at pos with frame into J (rows apart by nv, zero
 // on entry and zero off the two bodies' dof chains): the normal and nf friction rows, frame rows
 // times (J(body2) - J(body1)) at the contact point, computed on the chains only (O(depth), not
 // O(nv)). c->jac (12 nv: translational and rotational of both bodies) is zero between calls.
-// Returns 0 if the contact moves no degree of freedom; *last1, *last2 get the chains (for
-// chainZero after the rows are stored).
+// Returns 0 if the contact moves no degree of freedom (a frictionless one: beyond rounding);
+// *last1, *last2 get the chains (for chainZero after the rows are stored).
 static int contactJacobian(ostContext* c, const mjData* d, int g1, int g2, const mjtNum pos[3],
                            const mjtNum frame[9], int nf, const int* slot, const mjtNum* scale,
                            ostNum* J, int* last1, int* last2) {
@@ -139,6 +157,9 @@ static int contactJacobian(ostContext* c, const mjData* d, int g1, int g2, const
   *last2 = b2 > 0 ? chainJacobian(m, d, j2, rot ? r2 : NULL, pos, b2) : -1;
   int any = chainRows(m, frame, j1, j2, r1, r2, *last1, nf, slot, scale, J);
   any |= chainRows(m, frame, j1, j2, r1, r2, *last2, nf, slot, scale, J);
+  if (nf == 0 && any) {
+    any = normalMoves(m, j1, j2, J, *last1, *last2);
+  }
   chainZero(m, j1, 3, *last1);
   chainZero(m, j2, 3, *last2);
   chainZero(m, r1, 3, *last1);

@@ -777,6 +777,68 @@ START_TEST(test_turningNextToContactsFree) {
 }
 END_TEST
 
+
+// Two fingers on a wrist, each a sphere centred on its own two-hinge pivot, 2 mm apart and joined
+// by an explicit frictionless pair (condim 1, as hands such as ADROIT join their fingers'
+// bases): whatever the joints do the spheres keep their gap, so the pair's normal moves nothing
+// but rounding (|J_n| ~ 1e-16 of the points' motion, through the shared wrist) and it can carry
+// no force. Under motors and gravity, 1 s at h = 2 ms, both providers: every step converges and
+// the motion is the one with contacts disabled. Before such a frictionless contact was left out
+// (osti_normalMoves), its FB row had a scale of 1e-36 m/N and a free force: Newton drove it to
+// 1e19 N and steps failed (ADROIT's pen task: every step, 15 s each).
+START_TEST(test_pivotPairCarriesNoForce) {
+  ost_fixtureSetup();
+  mjModel* m = ost_fixtureLoadString(
+      "<mujoco><option timestep='0.002'/>"
+      "<default><joint armature='0.001' damping='0.005'/><geom contype='0' conaffinity='0'/>"
+      "</default><worldbody><body pos='0 0 0.5'><joint name='w' axis='0 1 0'/>"
+      "<geom type='box' size='0.03 0.01 0.03' mass='0.3'/>"
+      "<body pos='0.011 0.002 0.03'><joint name='a1' axis='0 1 0'/><joint name='a2' axis='1 0 0'/>"
+      "<geom name='s1' type='sphere' size='0.01' mass='0.01'/>"
+      "<geom type='capsule' fromto='0 0 0 0 0 0.045' size='0.008' mass='0.02'/></body>"
+      "<body pos='-0.011 -0.002 0.03'><joint name='b1' axis='0 1 0'/><joint name='b2' axis='1 0 0'/>"
+      "<geom name='s2' type='sphere' size='0.01' mass='0.01'/>"
+      "<geom type='capsule' fromto='0 0 0 0 0 0.045' size='0.008' mass='0.02'/></body>"
+      "</body></worldbody><contact><pair geom1='s1' geom2='s2' condim='1'/></contact>"
+      "<actuator><motor joint='w' gear='0.1'/><motor joint='a1' gear='0.03'/>"
+      "<motor joint='b2' gear='0.03'/></actuator></mujoco>");
+  mjData* d = mj_makeData(m);
+  mjData* r = mj_makeData(m);
+  for (int geo = 0; geo < 2; geo++) {
+    ostOptions opt;
+    ost_defaultOptions(&opt);
+    opt.geometry = geo ? OST_GEOMETRY_NATIVE : OST_GEOMETRY_MUJOCO;
+    mj_resetData(m, d);
+    mj_resetData(m, r);
+    ck_assert_int_eq(ost_setOptions(m, d, &opt), OST_OK);
+    ck_assert_int_eq(ost_setOptions(m, r, &opt), OST_OK);
+    double dq = 0;
+    long iters = 0;
+    for (int k = 0; k < 500; k++) {
+      for (int i = 0; i < m->nu; i++) {
+        d->ctrl[i] = r->ctrl[i] = sin(0.01 * k + i);
+      }
+      int status = ost_step(m, d);
+      ck_assert_msg(status == OST_OK, "geometry %d step %d: status %d, residual %g", geo, k,
+                    status, ost_stats(d)->residual);
+      iters += ost_stats(d)->newton_iter;
+      m->opt.disableflags |= mjDSBL_CONTACT;  // the reference: no contact at all
+      ck_assert_int_eq(ost_step(m, r), OST_OK);
+      m->opt.disableflags &= ~mjDSBL_CONTACT;
+      for (int j = 0; j < m->nq; j++) dq = fmax(dq, fabs(d->qpos[j] - r->qpos[j]));
+    }
+    printf("pivot pair, geometry %d: %.1f Newton iterates per step, |q - q(no contact)| = %.3g, "
+           "fingers at %.3f %.3f rad\n", geo, iters / 500.0, dq, d->qpos[1], d->qpos[4]);
+    ck_assert_double_gt(fabs(d->qpos[1]) + fabs(d->qpos[4]), 0.1);  // the fingers move
+    // no force acts: the same steps as without contacts, to rounding
+    ck_assert_double_le(dq, 1e-12);
+  }
+  ost_deleteData(d);
+  ost_deleteData(r);
+  mj_deleteModel(m);
+}
+END_TEST
+
 int main(void) {
   Suite* s = suite_create("ost_physics");
   TCase* tc = tcase_create("physics");
@@ -800,6 +862,7 @@ int main(void) {
   tcase_add_test(tc, test_heavyOnLight);
   tcase_add_test(tc, test_chainAgreesWithMujoco);
   tcase_add_test(tc, test_turningNextToContactsFree);
+  tcase_add_test(tc, test_pivotPairCarriesNoForce);
   suite_add_tcase(s, tc);
   return ost_fixtureRun(s);
 }
