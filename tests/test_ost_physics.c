@@ -778,30 +778,17 @@ START_TEST(test_turningNextToContactsFree) {
 END_TEST
 
 
-// Two fingers on a wrist, each a sphere centred on its own two-hinge pivot, 2 mm apart and joined
-// by an explicit frictionless pair (condim 1, as hands such as ADROIT join their fingers'
-// bases): whatever the joints do the spheres keep their gap, so the pair's normal moves nothing
-// but rounding (|J_n| ~ 1e-16 of the points' motion, through the shared wrist) and it can carry
+// Two fingers on a wrist (tests/models/pivot_pair.xml), each a sphere centred on its own
+// two-hinge pivot, 2 mm apart and joined by an explicit frictionless pair (condim 1, as hands
+// such as ADROIT join their fingers' bases): whatever the joints do the spheres keep their gap,
+// so the pair's normal moves nothing but rounding (|J_n| ~ 1e-16 of the points' motion, through the shared wrist) and it can carry
 // no force. Under motors and gravity, 1 s at h = 2 ms, both providers: every step converges and
 // the motion is the one with contacts disabled. Before such a frictionless contact was left out
 // (osti_normalMoves), its FB row had a scale of 1e-36 m/N and a free force: Newton drove it to
-// 1e19 N and steps failed (ADROIT's pen task: every step, 15 s each).
+// 1e19 N and steps failed (from step 1 here; ADROIT's pen task: every step, 15 s each).
 START_TEST(test_pivotPairCarriesNoForce) {
   ost_fixtureSetup();
-  mjModel* m = ost_fixtureLoadString(
-      "<mujoco><option timestep='0.002'/>"
-      "<default><joint armature='0.001' damping='0.005'/><geom contype='0' conaffinity='0'/>"
-      "</default><worldbody><body pos='0 0 0.5'><joint name='w' axis='0 1 0'/>"
-      "<geom type='box' size='0.03 0.01 0.03' mass='0.3'/>"
-      "<body pos='0.011 0.002 0.03'><joint name='a1' axis='0 1 0'/><joint name='a2' axis='1 0 0'/>"
-      "<geom name='s1' type='sphere' size='0.01' mass='0.01'/>"
-      "<geom type='capsule' fromto='0 0 0 0 0 0.045' size='0.008' mass='0.02'/></body>"
-      "<body pos='-0.011 -0.002 0.03'><joint name='b1' axis='0 1 0'/><joint name='b2' axis='1 0 0'/>"
-      "<geom name='s2' type='sphere' size='0.01' mass='0.01'/>"
-      "<geom type='capsule' fromto='0 0 0 0 0 0.045' size='0.008' mass='0.02'/></body>"
-      "</body></worldbody><contact><pair geom1='s1' geom2='s2' condim='1'/></contact>"
-      "<actuator><motor joint='w' gear='0.1'/><motor joint='a1' gear='0.03'/>"
-      "<motor joint='b2' gear='0.03'/></actuator></mujoco>");
+  mjModel* m = ost_fixtureLoadModel("../tests/models/pivot_pair.xml");
   mjData* d = mj_makeData(m);
   mjData* r = mj_makeData(m);
   for (int geo = 0; geo < 2; geo++) {
