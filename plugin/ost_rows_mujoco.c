@@ -372,6 +372,15 @@ int ost_collideCorePair(const mjModel* m, const mjData* d, const ostNum* hfield_
     return osti_collideHField(con, OST_MAXCONPAIR, &hf, &a, &b, margin, m->opt.mpr_tolerance,
                               m->opt.mpr_iterations);
   }
+  // a plane's pair whose other geom's bounding sphere lies above the plane by more than the
+  // margin has no contact (MuJoCo's plane filter): the hull scans below need not run
+  if (a.type == mjGEOM_PLANE) {
+    mjtNum dx[3] = {b.pos[0] - a.pos[0], b.pos[1] - a.pos[1], b.pos[2] - a.pos[2]};
+    mjtNum above = a.mat[2] * dx[0] + a.mat[5] * dx[1] + a.mat[8] * dx[2];
+    if (above > b.rbound + margin) {
+      return 0;
+    }
+  }
   if (a.type == mjGEOM_PLANE && b.type == mjGEOM_MESH) {
     // the hull's vertices (mesh_graph: numvert, numface, vert_edgeadr, vert_globalid, ...)
     int id = m->geom_dataid[g2];
